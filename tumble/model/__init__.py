@@ -1,0 +1,5 @@
+"""Model layer: the builder, the immutable Model and mass properties."""
+from .builder import ModelBuilder
+from .model import BODY_KINDS, GEOM_TYPES, Model, ModelArrays
+
+__all__ = ["ModelBuilder", "Model", "ModelArrays", "BODY_KINDS", "GEOM_TYPES"]

@@ -1,0 +1,283 @@
+"""ModelBuilder: collect bodies and geoms, validate each on entry, build a Model.
+
+Every ``add_*`` call checks its arguments before it stores anything, so a refused
+call leaves the builder as it was. ``build()`` does the whole-model work (mass from
+geoms, principal axes, frames) and never changes the builder either.
+"""
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from ..errors import ModelError
+from . import mass as massprops
+from .model import BODY_KINDS, GEOM_TYPES, Model
+from .validate import positive, unit_quat, unit_vector, vector
+
+_MASSIVE_SHAPES = ("sphere", "box", "capsule", "cylinder")
+
+
+def _quat_z_to(normal):
+    """Unit quaternion (x, y, z, w) rotating +z onto the unit vector ``normal``."""
+    z = np.array([0.0, 0.0, 1.0])
+    c = float(z @ normal)
+    if c < -1.0 + 1e-12:
+        return np.array([1.0, 0.0, 0.0, 0.0])         # half turn about x
+    axis = np.cross(z, normal)
+    q = np.array([axis[0], axis[1], axis[2], 1.0 + c])
+    return q / np.linalg.norm(q)
+
+
+class ModelBuilder:
+    """Builds a :class:`Model` body by body.
+
+    Parameters
+    ----------
+    gravity : (3,) m/s^2, world frame. Default (0, 0, -9.81): z up.
+    timestep : default step of worlds made from the model, in seconds.
+    """
+
+    def __init__(self, gravity=(0.0, 0.0, -9.81), timestep=1.0 / 240.0):
+        self.gravity = vector(gravity, 3, "model", "gravity")
+        self.timestep = positive(timestep, "model", "timestep")
+        self._bodies = []
+        self._geoms = []
+        self._body_index = {}
+        self._geom_names = set()
+
+    # ------------------------------------------------------------------ bodies
+    def add_body(self, name, pos=(0.0, 0.0, 0.0), quat=(0.0, 0.0, 0.0, 1.0), *, mass=None,
+                 inertia=None, density=None, vel=(0.0, 0.0, 0.0), angvel=(0.0, 0.0, 0.0),
+                 kind="dynamic"):
+        """Add a body; returns its index (the order of ``add_body`` calls).
+
+        pos, quat : pose of the body frame in the world (m; unit quaternion x, y, z, w).
+        mass, inertia : kg and kg m^2 about the COM in the body frame; inertia is (3,)
+            principal moments or a full (3, 3) tensor, which is diagonalised at build
+            (the simulated frame is then the principal frame; see ``Model.body_iquat``).
+        density : kg/m^3; mass, COM and inertia then come from the body's geoms.
+            Giving ``mass`` without ``inertia`` also uses the geoms' shape, scaled to that mass.
+        vel, angvel : initial velocity of the centre of mass and angular velocity, world
+            frame (m/s, rad/s).
+        kind : 'dynamic'; 'kinematic' (infinite mass, moves with the velocity you set);
+            or 'static' (infinite mass, never moves).
+        """
+        where = f"body '{name}'"
+        if not isinstance(name, str) or not name:
+            raise ModelError(f"body name must be a non-empty string, got {name!r}")
+        if name in self._body_index:
+            raise ModelError(f"{where}: a body with this name already exists")
+        if kind not in BODY_KINDS:
+            raise ModelError(f"{where}: kind must be one of {list(BODY_KINDS)}, got {kind!r}")
+        body = dict(name=name, kind=kind,
+                    pos=vector(pos, 3, where, "pos"), quat=unit_quat(quat, where, "quat"),
+                    vel=vector(vel, 3, where, "vel"), angvel=vector(angvel, 3, where, "angvel"),
+                    mass=None, inertia=None, density=None)
+        if mass is not None:
+            body["mass"] = positive(mass, where, "mass")
+        if inertia is not None:
+            if mass is None:
+                raise ModelError(f"{where}: inertia given without mass")
+            body["inertia"] = massprops.check_inertia(inertia, where)
+        if density is not None:
+            if mass is not None:
+                raise ModelError(f"{where}: give mass or density, not both")
+            body["density"] = positive(density, where, "density")
+        if kind == "dynamic" and mass is None and density is None:
+            raise ModelError(f"{where}: a dynamic body needs mass (and inertia) or density")
+        if kind == "static" and (np.any(body["vel"] != 0.0) or np.any(body["angvel"] != 0.0)):
+            raise ModelError(f"{where}: a static body cannot move (vel, angvel); "
+                             f"use kind='kinematic'")
+        self._body_index[name] = len(self._bodies)
+        self._bodies.append(body)
+        return len(self._bodies) - 1
+
+    def body_index(self, body):
+        """Index of a body given by index or name (ModelError if unknown)."""
+        if isinstance(body, (int, np.integer)) and not isinstance(body, bool):
+            if 0 <= body < len(self._bodies):
+                return int(body)
+            raise ModelError(f"body index {body} out of range: the builder has "
+                             f"{len(self._bodies)} bodies")
+        if isinstance(body, str):
+            if body in self._body_index:
+                return self._body_index[body]
+            raise ModelError(f"unknown body '{body}'; bodies are {list(self._body_index)}")
+        raise ModelError(f"a body is given by its index or name, got {body!r}")
+
+    # ------------------------------------------------------------------- geoms
+    def add_geom(self, body, type, size=None, *, radius=None, half_length=None, normal=None,
+                 pos=(0.0, 0.0, 0.0), quat=(0.0, 0.0, 0.0, 1.0), friction=1.0, restitution=0.0,
+                 density=None, contype=1, conaffinity=1, name=None):
+        """Attach a collision shape to ``body`` (index or name; None: the static world).
+
+        type : 'plane', 'sphere', 'capsule', 'box' or 'cylinder'.
+        size : sphere (radius,); capsule and cylinder (radius, half_length) with the axis
+            along the geom's local z; box (hx, hy, hz) half extents. ``radius`` and
+            ``half_length`` may be given by keyword instead.
+        normal : planes only, world-frame normal (default +z); the plane passes through
+            ``pos`` and is solid below. A plane belongs to the world or a static body.
+        pos, quat : pose of the geom in the body frame as given to ``add_body``
+            (world frame for world geoms).
+        friction, restitution : Coulomb coefficient (>= 0) and bounce (0..1).
+        density : kg/m^3 for this geom when the body's mass comes from its geoms.
+        contype, conaffinity : collision bits (MuJoCo semantics: two geoms may collide
+            when ``contype_a & conaffinity_b`` or ``contype_b & conaffinity_a``).
+        Returns the geom index.
+        """
+        gname = name if name is not None else f"geom{len(self._geoms)}"
+        where = f"geom '{gname}'"
+        if not isinstance(gname, str) or not gname:
+            raise ModelError(f"geom name must be a non-empty string, got {name!r}")
+        if gname in self._geom_names:
+            raise ModelError(f"{where}: a geom with this name already exists")
+        if body is None:
+            body_idx = -1
+        else:
+            try:
+                body_idx = self.body_index(body)
+            except ModelError as e:
+                raise ModelError(f"{where}: {e}") from None
+        if type not in GEOM_TYPES:
+            raise ModelError(f"{where}: type must be one of {list(GEOM_TYPES)}, got {type!r}")
+        geom_size = self._geom_size(type, size, radius, half_length, where)
+        gpos = vector(pos, 3, where, "pos")
+        gquat = unit_quat(quat, where, "quat")
+        if type == "plane":
+            if body_idx >= 0 and self._bodies[body_idx]["kind"] == "dynamic":
+                raise ModelError(f"{where}: a plane is infinite and may only belong to the world "
+                                 f"or a static body, not dynamic body "
+                                 f"'{self._bodies[body_idx]['name']}'")
+            if normal is not None:
+                gquat = _quat_z_to(unit_vector(normal, where, "normal"))
+        elif normal is not None:
+            raise ModelError(f"{where}: normal applies to planes only")
+        fr = positive(friction, where, "friction", allow_zero=True)
+        rest = positive(restitution, where, "restitution", allow_zero=True)
+        if rest > 1.0:
+            raise ModelError(f"{where}: restitution must be in [0, 1], got {restitution!r}")
+        dens = None if density is None else positive(density, where, "density")
+        for field, bits in (("contype", contype), ("conaffinity", conaffinity)):
+            if isinstance(bits, bool) or not isinstance(bits, (int, np.integer)) or not 0 <= bits < 2**32:
+                raise ModelError(f"{where}: {field} must be an integer bit mask in [0, 2^32), "
+                                 f"got {bits!r}")
+        self._geom_names.add(gname)
+        self._geoms.append(dict(name=gname, body=body_idx, type=type, size=geom_size, pos=gpos,
+                                quat=gquat, friction=fr, restitution=rest, density=dens,
+                                contype=int(contype), conaffinity=int(conaffinity)))
+        return len(self._geoms) - 1
+
+    @staticmethod
+    def _geom_size(type, size, radius, half_length, where):
+        out = np.zeros(3)
+        if type == "plane":
+            if size is not None or radius is not None or half_length is not None:
+                raise ModelError(f"{where}: a plane takes no size")
+            return out
+        if size is not None and (radius is not None or half_length is not None):
+            raise ModelError(f"{where}: give size or radius/half_length, not both")
+        if type == "box":
+            if size is None:
+                raise ModelError(f"{where}: a box needs size=(hx, hy, hz), its half extents")
+            out[:] = vector(size, 3, where, "size")
+            names = ("size[0] (hx)", "size[1] (hy)", "size[2] (hz)")
+        elif type == "sphere":
+            if size is not None:
+                radius = np.asarray(size, dtype=float).reshape(-1)
+                if radius.size != 1:
+                    raise ModelError(f"{where}: a sphere's size is (radius,), got {size!r}")
+                radius = radius[0]
+            if radius is None:
+                raise ModelError(f"{where}: a sphere needs a radius")
+            out[0] = radius
+            names = ("radius",)
+        else:  # capsule, cylinder
+            if size is not None:
+                out[:2] = vector(size, 2, where, "size")
+            else:
+                if radius is None or half_length is None:
+                    raise ModelError(f"{where}: a {type} needs radius and half_length")
+                out[0], out[1] = radius, half_length
+            names = ("radius", "half_length")
+        for i, field in enumerate(names):
+            positive(out[i], where, field)
+        return out
+
+    # ------------------------------------------------------------------- build
+    def build(self):
+        """Validate the whole model and return an immutable :class:`Model`."""
+        if not self._bodies and not self._geoms:
+            raise ModelError("model is empty: add at least one body or geom")
+        nb = len(self._bodies)
+        b = dict(
+            names=[d["name"] for d in self._bodies],
+            kind=np.array([BODY_KINDS[d["kind"]] for d in self._bodies], dtype=np.int32),
+            mass=np.full(nb, np.inf), inertia=np.full((nb, 3), np.inf),
+            pos=np.zeros((nb, 3)), quat=np.zeros((nb, 4)),
+            vel=np.zeros((nb, 3)), angvel=np.zeros((nb, 3)),
+            ipos=np.zeros((nb, 3)), iquat=np.tile([0.0, 0.0, 0.0, 1.0], (nb, 1)),
+        )
+        geoms_of = [[] for _ in range(nb)]
+        for gi, g in enumerate(self._geoms):
+            if g["body"] >= 0:
+                geoms_of[g["body"]].append(gi)
+
+        for i, d in enumerate(self._bodies):
+            if d["kind"] == "dynamic":
+                m, ipos, inertia = self._body_mass(d, [self._geoms[g] for g in geoms_of[i]])
+                moments, axes = massprops.principal_axes(inertia)
+                b["mass"][i] = m
+                b["inertia"][i] = moments
+                b["ipos"][i] = ipos
+                b["iquat"][i] = Rotation.from_matrix(axes).as_quat()
+            r_user = Rotation.from_quat(d["quat"])
+            r_body = r_user * Rotation.from_quat(b["iquat"][i])
+            b["pos"][i] = d["pos"] + r_user.apply(b["ipos"][i])
+            b["quat"][i] = r_body.as_quat()
+            b["vel"][i] = d["vel"]
+            b["angvel"][i] = d["angvel"]
+
+        ng = len(self._geoms)
+        g = dict(names=[x["name"] for x in self._geoms],
+                 body=np.array([x["body"] for x in self._geoms], dtype=np.int32),
+                 type=np.array([GEOM_TYPES[x["type"]] for x in self._geoms], dtype=np.int32),
+                 size=np.array([x["size"] for x in self._geoms]).reshape(ng, 3),
+                 pos=np.zeros((ng, 3)), quat=np.zeros((ng, 4)),
+                 friction=np.array([x["friction"] for x in self._geoms], dtype=float),
+                 restitution=np.array([x["restitution"] for x in self._geoms], dtype=float),
+                 contype=np.array([x["contype"] for x in self._geoms], dtype=np.uint32),
+                 conaffinity=np.array([x["conaffinity"] for x in self._geoms], dtype=np.uint32))
+        for gi, x in enumerate(self._geoms):
+            if x["body"] < 0:
+                g["pos"][gi], g["quat"][gi] = x["pos"], x["quat"]
+                continue
+            # Re-express the geom pose from the user's body frame in the COM principal frame.
+            bi = x["body"]
+            r_i = Rotation.from_quat(b["iquat"][bi])
+            g["pos"][gi] = r_i.inv().apply(x["pos"] - b["ipos"][bi])
+            g["quat"][gi] = (r_i.inv() * Rotation.from_quat(x["quat"])).as_quat()
+        return Model(gravity=self.gravity.copy(), timestep=self.timestep, bodies=b, geoms=g)
+
+    @staticmethod
+    def _body_mass(d, geoms):
+        """Mass, COM in the user body frame, inertia (3, 3) about the COM in that frame."""
+        where = f"body '{d['name']}'"
+        if d["inertia"] is not None:
+            return d["mass"], np.zeros(3), d["inertia"]
+        solids = [g for g in geoms if g["type"] in _MASSIVE_SHAPES]
+        if not solids:
+            raise ModelError(f"{where}: mass properties come from its geoms (density or mass "
+                             f"without inertia), but it has no sphere, box, capsule or cylinder")
+        default_density = d["density"] if d["density"] is not None else 1.0
+        masses, coms, tensors = [], [], []
+        for g in solids:
+            m, moments = massprops.shape_mass(g["type"], g["size"],
+                                              g["density"] or default_density)
+            rot = Rotation.from_quat(g["quat"]).as_matrix()
+            masses.append(m)
+            coms.append(g["pos"])
+            tensors.append(rot @ np.diag(moments) @ rot.T)
+        m, com, inertia = massprops.combine(masses, coms, tensors)
+        if d["mass"] is not None:                 # keep the shape, scale to the given mass
+            inertia = inertia * (d["mass"] / m)
+            m = d["mass"]
+        massprops.check_inertia(inertia, where)
+        return m, com, inertia

@@ -1,0 +1,359 @@
+"""World: the state of one model (or a batch of copies) and the calls that step and query it."""
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import ModelError, SimulationError, StateError
+from .math.quat import quat_rotate, quat_rotate_inv
+from .model.model import DYNAMIC, KINEMATIC, STATIC, Model
+from .model.validate import positive
+from .pipeline import step as pipeline_step
+from .pipeline.integrate import GYRO_EXPLICIT, GYRO_IMPLICIT, GYRO_NONE, QUAT_EXP, QUAT_LINEAR
+
+GYROSCOPIC = {"implicit": GYRO_IMPLICIT, "explicit": GYRO_EXPLICIT, "none": GYRO_NONE}
+QUAT_INTEGRATION = {"exp": QUAT_EXP, "linear": QUAT_LINEAR}
+CONTACT_MODELS = ("lcp", "pgs", "penalty")
+
+_STATE_FIELDS = {
+    pipeline_step.STATE_NONFINITE_POS: "body_pos is not finite",
+    pipeline_step.STATE_NONFINITE_QUAT: "body_quat is not finite",
+    pipeline_step.STATE_ZERO_QUAT: "body_quat is zero",
+    pipeline_step.STATE_NONFINITE_VEL: "body_vel is not finite",
+    pipeline_step.STATE_NONFINITE_ANGVEL: "body_angvel is not finite",
+    pipeline_step.STATE_NONFINITE_FORCE: "the applied force is not finite",
+    pipeline_step.STATE_NONFINITE_TORQUE: "the applied torque is not finite",
+}
+
+
+@dataclass
+class State:
+    """A snapshot of a world's state (copies, safe to keep): see ``World.get_state``.
+
+    Arrays have a leading world axis: body_pos (nworld, nbody, 3), body_quat
+    (nworld, nbody, 4), body_vel and body_angvel (nworld, nbody, 3); time in s.
+    """
+    time: float
+    body_pos: np.ndarray
+    body_quat: np.ndarray
+    body_vel: np.ndarray
+    body_angvel: np.ndarray
+
+
+class World:
+    """A model's state and its time stepping.
+
+    Parameters
+    ----------
+    model : Model
+    dt : step in seconds (default ``model.timestep``).
+    contact : 'lcp', 'pgs' or 'penalty' (the contact model; see the contact docs).
+    nworld : number of independent copies stepped together (state arrays then carry a
+        leading world axis).
+    gyroscopic : 'implicit' (default), 'explicit' or 'none': how ``w x I w`` enters the
+        step; see ``tumble.pipeline.integrate``.
+    quat_integration : 'exp' (default; exact for a constant angular velocity) or
+        'linear' (the lecture's ``q + h/2 (w, 0) q``, normalised).
+    divergence_limit : a position or speed beyond this (m, m/s, rad/s) is a divergence.
+
+    The state arrays ``body_pos``, ``body_quat``, ``body_vel``, ``body_angvel`` are live
+    views: write into them between steps to set the state.
+    """
+
+    def __init__(self, model, dt=None, *, contact="lcp", nworld=1, gyroscopic="implicit",
+                 quat_integration="exp", divergence_limit=1e8):
+        if not isinstance(model, Model):
+            raise ModelError(f"World needs a tumble Model, got {type(model).__name__}")
+        self.model = model
+        self.dt = model.timestep if dt is None else dt
+        if contact not in CONTACT_MODELS:
+            raise ModelError(f"world: contact must be one of {list(CONTACT_MODELS)}, "
+                             f"got {contact!r}")
+        if gyroscopic not in GYROSCOPIC:
+            raise ModelError(f"world: gyroscopic must be one of {list(GYROSCOPIC)}, "
+                             f"got {gyroscopic!r}")
+        if quat_integration not in QUAT_INTEGRATION:
+            raise ModelError(f"world: quat_integration must be one of "
+                             f"{list(QUAT_INTEGRATION)}, got {quat_integration!r}")
+        if isinstance(nworld, bool) or not isinstance(nworld, (int, np.integer)) or nworld < 1:
+            raise ModelError(f"world: nworld must be a positive integer, got {nworld!r}")
+        self.contact = contact
+        self.gyroscopic = gyroscopic
+        self.quat_integration = quat_integration
+        self.divergence_limit = positive(divergence_limit, "world", "divergence_limit")
+        self.nworld = int(nworld)
+        nb, nw = model.nbody, self.nworld
+        self._state = pipeline_step.StateArrays(
+            body_pos=np.zeros((nw, nb, 3)), body_quat=np.zeros((nw, nb, 4)),
+            body_vel=np.zeros((nw, nb, 3)), body_angvel=np.zeros((nw, nb, 3)),
+            applied_force=np.zeros((nw, nb, 3)), applied_torque=np.zeros((nw, nb, 3)))
+        self.reset()
+
+    @property
+    def dt(self):
+        """Step size in seconds; may be changed between steps."""
+        return self._dt
+
+    @dt.setter
+    def dt(self, value):
+        self._dt = positive(value, "world", "dt")
+
+    # ------------------------------------------------------------------ state
+    def reset(self):
+        """Back to the model's initial state at time 0; applied forces cleared."""
+        s = self._state
+        s.body_pos[:] = self.model.body_pos0
+        s.body_quat[:] = self.model.body_quat0
+        s.body_vel[:] = self.model.body_vel0
+        s.body_angvel[:] = self.model.body_angvel0
+        s.applied_force[:] = 0.0
+        s.applied_torque[:] = 0.0
+        self.time = 0.0
+
+    def _view(self, a):
+        return a[0] if self.nworld == 1 else a
+
+    @property
+    def body_pos(self):
+        """COM positions, m, world frame: (nbody, 3), or (nworld, nbody, 3) for a batch."""
+        return self._view(self._state.body_pos)
+
+    @body_pos.setter
+    def body_pos(self, value):
+        self._assign("body_pos", value)
+
+    @property
+    def body_quat(self):
+        """Orientations of the principal frames (x, y, z, w): (nbody, 4) or (nworld, nbody, 4)."""
+        return self._view(self._state.body_quat)
+
+    @body_quat.setter
+    def body_quat(self, value):
+        self._assign("body_quat", value)
+
+    @property
+    def body_vel(self):
+        """COM velocities, m/s, world frame: (nbody, 3) or (nworld, nbody, 3)."""
+        return self._view(self._state.body_vel)
+
+    @body_vel.setter
+    def body_vel(self, value):
+        self._assign("body_vel", value)
+
+    @property
+    def body_angvel(self):
+        """Angular velocities, rad/s, world frame: (nbody, 3) or (nworld, nbody, 3)."""
+        return self._view(self._state.body_angvel)
+
+    @body_angvel.setter
+    def body_angvel(self, value):
+        self._assign("body_angvel", value)
+
+    def _assign(self, field, value):
+        target = getattr(self._state, field)
+        try:
+            v = np.broadcast_to(np.asarray(value, dtype=float), self._view(target).shape)
+        except ValueError:
+            raise StateError(f"{field}: expected shape {self._view(target).shape}, got "
+                             f"{np.shape(value)}") from None
+        self._view(target)[...] = v
+
+    def get_state(self):
+        """A copy of the state (time, poses, velocities) to restore later with ``set_state``."""
+        s = self._state
+        return State(self.time, s.body_pos.copy(), s.body_quat.copy(), s.body_vel.copy(),
+                     s.body_angvel.copy())
+
+    def set_state(self, state):
+        """Restore a ``State`` from ``get_state`` (validated; nothing changes if refused)."""
+        s = self._state
+        arrays = {}
+        for field in ("body_pos", "body_quat", "body_vel", "body_angvel"):
+            a = np.asarray(getattr(state, field), dtype=float)
+            if a.shape != getattr(s, field).shape:
+                raise StateError(f"set_state: {field} has shape {a.shape}, this world needs "
+                                 f"{getattr(s, field).shape}")
+            if not np.all(np.isfinite(a)):
+                raise StateError(f"set_state: {field} is not finite")
+            arrays[field] = a
+        if np.any(np.linalg.norm(arrays["body_quat"], axis=-1) < 1e-12):
+            raise StateError("set_state: body_quat has a zero quaternion")
+        time = float(state.time)
+        if not np.isfinite(time):
+            raise StateError("set_state: time is not finite")
+        for field, a in arrays.items():
+            getattr(s, field)[...] = a
+        self.time = time
+
+    # ------------------------------------------------------------------- step
+    def step(self, n=1):
+        """Advance ``n`` steps of ``dt`` in one compiled call.
+
+        Forces given by ``apply_force``/``apply_torque`` act through all ``n`` steps and
+        are cleared afterwards. Raises StateError if the state written by the user is
+        invalid, and SimulationError (naming the body and step) if the simulation
+        diverges; in both cases the world is left as it was before the call.
+        """
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
+            raise ModelError(f"step: n must be a non-negative integer, got {n!r}")
+        if n == 0:
+            return
+        s = self._state
+        code, w, b = pipeline_step.check_state(s)
+        if code != pipeline_step.STATE_OK:
+            where = f"body '{self.model.body_names[b]}'" + (f" in world {w}" if self.nworld > 1 else "")
+            raise StateError(f"{where}: {_STATE_FIELDS[code]}")
+        self._enforce_static()
+        w, k, b = pipeline_step.step_worlds(
+            self.model.arrays, s, int(n), self.dt, GYROSCOPIC[self.gyroscopic],
+            QUAT_INTEGRATION[self.quat_integration], self.divergence_limit)
+        if k >= 0:
+            t = self.time + k * self.dt
+            where = f"body '{self.model.body_names[b]}'" + (f" in world {w}" if self.nworld > 1 else "")
+            raise SimulationError(
+                f"simulation diverged: {where} has a non-finite or runaway state after step "
+                f"{k} of this call (t = {t:.6g} s, dt = {self.dt:g} s); the world is left as it "
+                f"was before the call. Try a smaller dt or check the forces applied.",
+                body=self.model.body_names[b], step=int(k), time=t, world=int(w))
+        self.time += n * self.dt
+        s.applied_force[:] = 0.0
+        s.applied_torque[:] = 0.0
+
+    def _enforce_static(self):
+        static = self.model.body_kind == STATIC
+        if static.any():
+            self._state.body_vel[:, static] = 0.0
+            self._state.body_angvel[:, static] = 0.0
+
+    # ----------------------------------------------------------------- forces
+    def _world_slice(self, world):
+        if world is None:
+            return slice(None)
+        if isinstance(world, bool) or not isinstance(world, (int, np.integer)) \
+                or not 0 <= world < self.nworld:
+            raise ModelError(f"world index must be in [0, {self.nworld}), got {world!r}")
+        return int(world)
+
+    def _vec3(self, value, what, world):
+        """Broadcast a force-like (3,) or per-world (nworld, 3) array, refusing non-finite."""
+        a = np.asarray(value, dtype=float)
+        ok = a.shape == (3,) or (world is None and a.shape == (self.nworld, 3))
+        if not ok:
+            raise ModelError(f"{what} must have shape (3,)"
+                             + (f" or ({self.nworld}, 3)" if self.nworld > 1 else "")
+                             + f", got {a.shape}")
+        if not np.all(np.isfinite(a)):
+            raise ModelError(f"{what} is not finite: {a.tolist()}")
+        return a
+
+    def apply_force(self, body, force, point=None, *, world=None):
+        """Apply ``force`` (N, world frame) at world ``point`` (default: the COM).
+
+        Adds the torque ``(point - com) x force``. Forces accumulate and act through the
+        whole next ``step(n)`` call, then are cleared. On kinematic and static bodies
+        they have no effect. ``world`` picks one copy of a batch (default: all).
+        """
+        b = self.model.body_index(body)
+        wsl = self._world_slice(world)
+        f = self._vec3(force, f"apply_force on body '{self.model.body_names[b]}': force", world)
+        if point is not None:
+            p = self._vec3(point, f"apply_force on body '{self.model.body_names[b]}': point", world)
+            r = p - self._state.body_pos[wsl, b]
+            self._state.applied_torque[wsl, b] += np.cross(r, f)
+        self._state.applied_force[wsl, b] += f
+
+    def apply_torque(self, body, torque, *, world=None):
+        """Apply ``torque`` (N m, world frame) to ``body`` through the next ``step(n)`` call."""
+        b = self.model.body_index(body)
+        wsl = self._world_slice(world)
+        t = self._vec3(torque, f"apply_torque on body '{self.model.body_names[b]}': torque", world)
+        self._state.applied_torque[wsl, b] += t
+
+    def clear_forces(self):
+        """Drop the forces and torques applied since the last step."""
+        self._state.applied_force[:] = 0.0
+        self._state.applied_torque[:] = 0.0
+
+    # ---------------------------------------------------------------- queries
+    def _body_state(self, body, world):
+        b = self.model.body_index(body)
+        w = 0 if world is None else self._world_slice(world)
+        s = self._state
+        return b, s.body_pos[w, b], s.body_quat[w, b], s.body_vel[w, b], s.body_angvel[w, b]
+
+    def point_velocity(self, body, point, *, world=None):
+        """Velocity (m/s, world) of the world ``point`` moving with ``body``: ``v + w x r``."""
+        b, pos, _, vel, angvel = self._body_state(body, world)
+        r = np.asarray(point, float) - pos
+        return vel + np.cross(angvel, r)
+
+    def body_to_world(self, body, point_b, *, world=None):
+        """World position of a point given in the body's COM principal frame (m)."""
+        b, pos, quat, _, _ = self._body_state(body, world)
+        return pos + np.asarray(quat_rotate(quat, np.asarray(point_b, float)))
+
+    def world_to_body(self, body, point_w, *, world=None):
+        """Position in the body's COM principal frame of a world point (m)."""
+        b, pos, quat, _, _ = self._body_state(body, world)
+        return np.asarray(quat_rotate_inv(quat, np.asarray(point_w, float) - pos))
+
+    def vector_to_world(self, body, vec_b, *, world=None):
+        """Rotate a body-frame direction into the world frame."""
+        b, _, quat, _, _ = self._body_state(body, world)
+        return np.asarray(quat_rotate(quat, np.asarray(vec_b, float)))
+
+    def vector_to_body(self, body, vec_w, *, world=None):
+        """Rotate a world-frame direction into the body frame."""
+        b, _, quat, _, _ = self._body_state(body, world)
+        return np.asarray(quat_rotate_inv(quat, np.asarray(vec_w, float)))
+
+    def _dynamic(self):
+        return self.model.body_kind == DYNAMIC
+
+    def _world_inertia(self, quat):
+        """(..., nbody, 3, 3) world inertia R diag(I) R^T of the dynamic bodies (0 otherwise)."""
+        x, y, z, w = np.moveaxis(quat, -1, 0)
+        rot = np.stack([
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
+            np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
+            np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1),
+        ], -2)
+        moments = self.model.arrays.body_inertia
+        return np.einsum("...ij,...j,...kj->...ik", rot, moments, rot)
+
+    def energy(self):
+        """(kinetic, potential) energy in J of the dynamic bodies; per world for a batch.
+
+        Potential is gravitational, ``-m g . x``, zero at the world origin.
+        """
+        s, dyn = self._state, self._dynamic()
+        mass = np.where(dyn, self.model.body_mass, 0.0)
+        iw = self._world_inertia(s.body_quat)
+        lin = 0.5 * np.einsum("b,wbi,wbi->w", mass, s.body_vel, s.body_vel)
+        ang = 0.5 * np.einsum("wbi,wbij,wbj->w", s.body_angvel, iw, s.body_angvel)
+        pot = -np.einsum("b,wbi,i->w", mass, s.body_pos, self.model.gravity)
+        kinetic, potential = lin + ang, pot
+        if self.nworld == 1:
+            return float(kinetic[0]), float(potential[0])
+        return kinetic, potential
+
+    def linear_momentum(self):
+        """Total linear momentum (kg m/s, world) of the dynamic bodies: (3,) or (nworld, 3)."""
+        s = self._state
+        mass = np.where(self._dynamic(), self.model.body_mass, 0.0)
+        return self._view(np.einsum("b,wbi->wi", mass, s.body_vel))
+
+    def angular_momentum(self, about=(0.0, 0.0, 0.0)):
+        """Total angular momentum (kg m^2/s, world) about the world point ``about``.
+
+        Sum over dynamic bodies of ``(x - about) x m v + I_w w``: (3,) or (nworld, 3).
+        """
+        s = self._state
+        mass = np.where(self._dynamic(), self.model.body_mass, 0.0)
+        r = s.body_pos - np.asarray(about, float)
+        orbital = np.einsum("b,wbi->wbi", mass, np.cross(r, s.body_vel))
+        spin = np.einsum("wbij,wbj->wbi", self._world_inertia(s.body_quat), s.body_angvel)
+        return self._view((orbital + spin).sum(axis=1))
+
+    def __repr__(self):
+        return (f"<tumble.World: {self.model.nbody} bodies, dt={self.dt:g} s, t={self.time:g} s"
+                + (f", {self.nworld} worlds" if self.nworld > 1 else "") + ">")
