@@ -37,3 +37,7 @@ class SimulationError(TumbleError, RuntimeError):
         self.step = step
         self.time = time
         self.world = world
+
+
+class TumbleWarning(UserWarning):
+    """Input that is legal but probably not what was meant (e.g. a joint anchor far away)."""

@@ -13,6 +13,7 @@ from .pipeline.integrate import GYRO_EXPLICIT, GYRO_IMPLICIT, GYRO_NONE, QUAT_EX
 GYROSCOPIC = {"implicit": GYRO_IMPLICIT, "explicit": GYRO_EXPLICIT, "none": GYRO_NONE}
 QUAT_INTEGRATION = {"exp": QUAT_EXP, "linear": QUAT_LINEAR}
 CONTACT_MODELS = ("lcp", "pgs", "penalty")
+SOLVERS = {"direct": pipeline_step.SOLVER_DIRECT, "pgs": pipeline_step.SOLVER_PGS}
 
 _STATE_FIELDS = {
     pipeline_step.STATE_NONFINITE_POS: "body_pos is not finite",
@@ -54,13 +55,25 @@ class World:
     quat_integration : 'exp' (default; exact for a constant angular velocity) or
         'linear' (the lecture's ``q + h/2 (w, 0) q``, normalised).
     divergence_limit : a position or speed beyond this (m, m/s, rad/s) is a divergence.
+    solver : 'direct' (default: exact, dense factorisation with an active set for limits and
+        motors) or 'pgs' (projected Gauss-Seidel, warm-started).
+    erp, cfm : ODE's error reduction (0..1, default 0.2) and constraint force mixing (default
+        1e-10) for every joint that does not set its own.
+    iterations, tolerance : PGS sweeps at most, and the impulse change (N s) that ends them.
+    warm_start : start PGS from the previous step's impulses.
+    projection : Gauss-Newton iterations that move joints back together after each position
+        update without touching velocities (post-stabilisation; 0 to rely on ERP alone).
+    projection_tolerance : largest row error (m, rad) past which projection runs; below it ERP
+        alone pulls joints together, which dissipates less.
 
     The state arrays ``body_pos``, ``body_quat``, ``body_vel``, ``body_angvel`` are live
     views: write into them between steps to set the state.
     """
 
     def __init__(self, model, dt=None, *, contact="lcp", nworld=1, gyroscopic="implicit",
-                 quat_integration="exp", divergence_limit=1e8):
+                 quat_integration="exp", divergence_limit=1e8, solver="direct", erp=0.2,
+                 cfm=1e-10, iterations=100, tolerance=1e-10, warm_start=True, projection=2,
+                 projection_tolerance=5e-5):
         if not isinstance(model, Model):
             raise ModelError(f"World needs a tumble Model, got {type(model).__name__}")
         self.model = model
@@ -80,12 +93,35 @@ class World:
         self.gyroscopic = gyroscopic
         self.quat_integration = quat_integration
         self.divergence_limit = positive(divergence_limit, "world", "divergence_limit")
+        if solver not in SOLVERS:
+            raise ModelError(f"world: solver must be one of {list(SOLVERS)}, got {solver!r}")
+        self.solver = solver
+        self.erp = positive(erp, "world", "erp", allow_zero=True)
+        if self.erp > 1.0:
+            raise ModelError(f"world: erp must be in [0, 1], got {erp!r}")
+        self.cfm = positive(cfm, "world", "cfm", allow_zero=True)
+        if isinstance(iterations, bool) or not isinstance(iterations, (int, np.integer)) \
+                or iterations < 1:
+            raise ModelError(f"world: iterations must be a positive integer, got {iterations!r}")
+        self.iterations = int(iterations)
+        self.tolerance = positive(tolerance, "world", "tolerance", allow_zero=True)
+        self.warm_start = bool(warm_start)
+        if isinstance(projection, bool) or not isinstance(projection, (int, np.integer)) \
+                or projection < 0:
+            raise ModelError(f"world: projection must be an integer >= 0, got {projection!r}")
+        self.projection = int(projection)
+        self.projection_tolerance = positive(projection_tolerance, "world",
+                                             "projection_tolerance", allow_zero=True)
         self.nworld = int(nworld)
-        nb, nw = model.nbody, self.nworld
+        nb, nw, nj = model.nbody, self.nworld, model.njoint
         self._state = pipeline_step.StateArrays(
             body_pos=np.zeros((nw, nb, 3)), body_quat=np.zeros((nw, nb, 4)),
             body_vel=np.zeros((nw, nb, 3)), body_angvel=np.zeros((nw, nb, 3)),
-            applied_force=np.zeros((nw, nb, 3)), applied_torque=np.zeros((nw, nb, 3)))
+            applied_force=np.zeros((nw, nb, 3)), applied_torque=np.zeros((nw, nb, 3)),
+            row_impulse=np.zeros((nw, model.nrow)), motor_target=np.zeros((nw, nj, 3)),
+            joint_q=np.zeros((nw, nj, 3)), joint_qd=np.zeros((nw, nj, 3)),
+            joint_qrel=np.zeros((nw, nj, 4)), joint_force=np.zeros((nw, nj, 3)),
+            joint_torque=np.zeros((nw, nj, 3)))
         self.reset()
 
     @property
@@ -107,7 +143,19 @@ class World:
         s.body_angvel[:] = self.model.body_angvel0
         s.applied_force[:] = 0.0
         s.applied_torque[:] = 0.0
+        s.row_impulse[:] = 0.0
+        s.motor_target[:] = 0.0
+        s.joint_force[:] = 0.0
+        s.joint_torque[:] = 0.0
         self.time = 0.0
+        self._update_joint_coordinates()
+
+    def _update_joint_coordinates(self):
+        from .pipeline.joints.rows import joint_coordinates
+        s = self._state
+        for w in range(self.nworld):
+            joint_coordinates(self.model.arrays, s.body_pos[w], s.body_quat[w], s.body_vel[w],
+                              s.body_angvel[w], s.joint_q[w], s.joint_qd[w], s.joint_qrel[w])
 
     def _view(self, a):
         return a[0] if self.nworld == 1 else a
@@ -183,6 +231,8 @@ class World:
         for field, a in arrays.items():
             getattr(s, field)[...] = a
         self.time = time
+        s.row_impulse[:] = 0.0
+        self._update_joint_coordinates()
 
     # ------------------------------------------------------------------- step
     def step(self, n=1):
@@ -202,10 +252,15 @@ class World:
         if code != pipeline_step.STATE_OK:
             where = f"body '{self.model.body_names[b]}'" + (f" in world {w}" if self.nworld > 1 else "")
             raise StateError(f"{where}: {_STATE_FIELDS[code]}")
+        if not np.all(np.isfinite(s.motor_target)):
+            raise StateError("joint_motor_target is not finite")
         self._enforce_static()
-        w, k, b = pipeline_step.step_worlds(
-            self.model.arrays, s, int(n), self.dt, GYROSCOPIC[self.gyroscopic],
-            QUAT_INTEGRATION[self.quat_integration], self.divergence_limit)
+        options = pipeline_step.StepOptions(
+            float(self.dt), GYROSCOPIC[self.gyroscopic], QUAT_INTEGRATION[self.quat_integration],
+            float(self.divergence_limit), float(self.erp), float(self.cfm), SOLVERS[self.solver],
+            self.iterations, float(self.tolerance), self.warm_start, self.projection,
+            float(self.projection_tolerance))
+        w, k, b = pipeline_step.step_worlds(self.model.arrays, s, int(n), options)
         if k >= 0:
             t = self.time + k * self.dt
             where = f"body '{self.model.body_names[b]}'" + (f" in world {w}" if self.nworld > 1 else "")
@@ -223,6 +278,51 @@ class World:
         if static.any():
             self._state.body_vel[:, static] = 0.0
             self._state.body_angvel[:, static] = 0.0
+
+    # ----------------------------------------------------------------- joints
+    @property
+    def joint_q(self):
+        """Joint coordinates (njoint, 3): hinge angle (rad) or slider position (m) in column 0,
+        universal angles in 0-1, ball rotation vector (rad, parent joint frame) in 0-2."""
+        return self._view(self._state.joint_q)
+
+    @property
+    def joint_qd(self):
+        """Rates of the joint coordinates (njoint, 3), rad/s or m/s, along the same axes."""
+        return self._view(self._state.joint_qd)
+
+    @property
+    def joint_quat(self):
+        """Rotation of each child joint frame relative to its parent's (njoint, 4), x, y, z, w."""
+        return self._view(self._state.joint_qrel)
+
+    @property
+    def joint_force(self):
+        """Force each joint exerted on its child over the last step (njoint, 3), N, world."""
+        return self._view(self._state.joint_force)
+
+    @property
+    def joint_torque(self):
+        """Torque each joint exerted on its child about the anchor (njoint, 3), N m, world."""
+        return self._view(self._state.joint_torque)
+
+    @property
+    def joint_motor_target(self):
+        """Live (njoint, 3) motor target velocities (rad/s or m/s) of each degree of freedom;
+        the motor pushes with at most the joint's ``motor_max_force``."""
+        return self._view(self._state.motor_target)
+
+    def joint_separation(self):
+        """Distance (m) between each joint's two anchor points: the drift; (njoint,)."""
+        from .pipeline.joints.common import joint_frames
+        s = self._state
+        out = np.zeros((self.nworld, self.model.njoint))
+        for w in range(self.nworld):
+            for j in range(self.model.njoint):
+                anchor_a, anchor_b = joint_frames(self.model.arrays, s.body_pos[w],
+                                                  s.body_quat[w], j)[:2]
+                out[w, j] = np.linalg.norm(np.subtract(anchor_b, anchor_a))
+        return self._view(out)
 
     # ----------------------------------------------------------------- forces
     def _world_slice(self, world):

@@ -4,10 +4,13 @@ Every ``add_*`` call checks its arguments before it stores anything, so a refuse
 call leaves the builder as it was. ``build()`` does the whole-model work (mass from
 geoms, principal axes, frames) and never changes the builder either.
 """
+import warnings
+
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..errors import ModelError
+from ..errors import ModelError, TumbleWarning
+from ..pipeline.joints.types import CORE_ROWS, DOFS, JOINT_TYPES, ROWS_PER_DOF
 from . import mass as massprops
 from .model import BODY_KINDS, GEOM_TYPES, Model
 from .validate import positive, unit_quat, unit_vector, vector
@@ -42,6 +45,8 @@ class ModelBuilder:
         self._geoms = []
         self._body_index = {}
         self._geom_names = set()
+        self._joints = []
+        self._joint_names = set()
 
     # ------------------------------------------------------------------ bodies
     def add_body(self, name, pos=(0.0, 0.0, 0.0), quat=(0.0, 0.0, 0.0, 1.0), *, mass=None,
@@ -201,6 +206,109 @@ class ModelBuilder:
             positive(out[i], where, field)
         return out
 
+    # ------------------------------------------------------------------ joints
+    def add_joint(self, name, type, parent, child, anchor=None, axis=None, axis2=None, *,
+                  limit=None, damping=0.0, friction=0.0, motor_max_force=0.0, erp=None,
+                  cfm=None, spring=None):
+        """Join ``child`` to ``parent`` (index or name; None: the world). Returns the index.
+
+        type : 'ball', 'hinge' (axis), 'universal' (axis on the parent, axis2 on the
+            child, perpendicular), 'fixed', 'slider' (axis), or 'free' (no constraint;
+            parent must be None).
+        anchor, axis, axis2 : world frame, in the pose the bodies were added in; the anchor
+            defaults to the child's position.
+        limit : (lower, upper) for hinge (rad) and slider (m) joints.
+        damping, friction : viscous (N m s/rad, N s/m) and dry (N m, N) resistance on every
+            degree of freedom, applied implicitly by the solver.
+        motor_max_force : bound (N m or N) of the velocity motor on every degree of freedom;
+            targets are set on the world (``World.joint_motor_target``). 0: no motor.
+        erp, cfm : this joint's ODE error-reduction and constraint-force-mixing values
+            (default: the world's).
+        spring : (k, c) to make the joint soft: its rows act as a spring k and damper c at
+            every step size (ERP = hk / (hk + c), CFM = 1 / (hk + c)).
+        """
+        where = f"joint '{name}'"
+        if not isinstance(name, str) or not name:
+            raise ModelError(f"joint name must be a non-empty string, got {name!r}")
+        if name in self._joint_names:
+            raise ModelError(f"{where}: a joint with this name already exists")
+        if type not in JOINT_TYPES:
+            raise ModelError(f"{where}: type must be one of {list(JOINT_TYPES)}, got {type!r}")
+        try:
+            p = -1 if parent is None else self.body_index(parent)
+            if child is None:
+                raise ModelError("child must be a body, not None")
+            c = self.body_index(child)
+        except ModelError as e:
+            raise ModelError(f"{where}: {e}") from None
+        if p == c:
+            raise ModelError(f"{where}: joins body '{self._bodies[c]['name']}' to itself")
+        if type == "free" and p != -1:
+            raise ModelError(f"{where}: a free joint has no parent (parent=None)")
+        kinds = [self._bodies[c]["kind"]] + ([self._bodies[p]["kind"]] if p >= 0 else ["static"])
+        if "dynamic" not in kinds:
+            raise ModelError(f"{where}: neither body can move, so the joint does nothing")
+        child_pos = self._bodies[c]["pos"]
+        anchor_w = child_pos.copy() if anchor is None else vector(anchor, 3, where, "anchor")
+        needs_axis = type in ("hinge", "slider", "universal")
+        if needs_axis and axis is None:
+            raise ModelError(f"{where}: a {type} joint needs an axis")
+        if not needs_axis and (axis is not None or axis2 is not None):
+            raise ModelError(f"{where}: a {type} joint takes no axis")
+        x_axis = unit_vector(axis, where, "axis") if needs_axis else np.array([1.0, 0, 0])
+        if type == "universal":
+            if axis2 is None:
+                raise ModelError(f"{where}: a universal joint needs axis2")
+            y_axis = unit_vector(axis2, where, "axis2")
+            if abs(x_axis @ y_axis) > 1e-6:
+                raise ModelError(f"{where}: axis and axis2 must be perpendicular "
+                                 f"(cos = {x_axis @ y_axis:.3g})")
+        elif axis2 is not None:
+            raise ModelError(f"{where}: axis2 applies to universal joints only")
+        else:
+            helper = np.array([0.0, 0, 1]) if abs(x_axis[2]) < 0.9 else np.array([1.0, 0, 0])
+            y_axis = np.cross(helper, x_axis)
+            y_axis /= np.linalg.norm(y_axis)
+        frame = np.column_stack([x_axis, y_axis, np.cross(x_axis, y_axis)])
+        if type in ("ball", "fixed", "free"):
+            frame = np.eye(3)
+        lim = np.array([1.0, -1.0])           # lower > upper: none
+        if limit is not None:
+            if type not in ("hinge", "slider"):
+                raise ModelError(f"{where}: limits apply to hinge and slider joints")
+            lim = vector(limit, 2, where, "limit")
+            if lim[0] > lim[1]:
+                raise ModelError(f"{where}: limit lower {lim[0]} is above upper {lim[1]}")
+        for field, v in (("erp", erp), ("cfm", cfm)):
+            if v is not None:
+                positive(v, where, field, allow_zero=True)
+        if erp is not None and erp > 1.0:
+            raise ModelError(f"{where}: erp must be in [0, 1], got {erp}")
+        k = cdamp = 0.0
+        if spring is not None:
+            if erp is not None or cfm is not None:
+                raise ModelError(f"{where}: give spring or erp/cfm, not both")
+            k_c = vector(spring, 2, where, "spring")
+            k = positive(k_c[0], where, "spring stiffness", allow_zero=True)
+            cdamp = positive(k_c[1], where, "spring damping", allow_zero=True)
+            if k == 0.0 and cdamp == 0.0:
+                raise ModelError(f"{where}: spring needs stiffness or damping > 0")
+        entry = dict(name=name, type=type, parent=p, child=c, anchor=anchor_w, frame=frame,
+                     limit=lim, damping=positive(damping, where, "damping", allow_zero=True),
+                     friction=positive(friction, where, "friction", allow_zero=True),
+                     motor_max=positive(motor_max_force, where, "motor_max_force",
+                                        allow_zero=True),
+                     erp=-1.0 if erp is None else float(erp),
+                     cfm=-1.0 if cfm is None else float(cfm), stiffness=k, soft_damping=cdamp)
+        far = min(np.linalg.norm(anchor_w - child_pos),
+                  np.linalg.norm(anchor_w - self._bodies[p]["pos"]) if p >= 0 else np.inf)
+        if far > 2.0:
+            warnings.warn(f"{where}: the anchor is {far:.3g} m from both bodies' origins",
+                          TumbleWarning, stacklevel=2)
+        self._joint_names.add(name)
+        self._joints.append(entry)
+        return len(self._joints) - 1
+
     # ------------------------------------------------------------------- build
     def build(self):
         """Validate the whole model and return an immutable :class:`Model`."""
@@ -254,7 +362,38 @@ class ModelBuilder:
             r_i = Rotation.from_quat(b["iquat"][bi])
             g["pos"][gi] = r_i.inv().apply(x["pos"] - b["ipos"][bi])
             g["quat"][gi] = (r_i.inv() * Rotation.from_quat(x["quat"])).as_quat()
-        return Model(gravity=self.gravity.copy(), timestep=self.timestep, bodies=b, geoms=g)
+        return Model(gravity=self.gravity.copy(), timestep=self.timestep, bodies=b, geoms=g,
+                     joints=self._build_joints(b))
+
+    def _build_joints(self, b):
+        """Joint arrays: anchors and frames re-expressed in each body's COM principal frame."""
+        nj = len(self._joints)
+        out = dict(names=[j["name"] for j in self._joints],
+                   type_names=[j["type"] for j in self._joints],
+                   type=np.array([JOINT_TYPES[j["type"]] for j in self._joints], np.int32),
+                   parent=np.array([j["parent"] for j in self._joints], np.int32),
+                   child=np.array([j["child"] for j in self._joints], np.int32),
+                   anchor_a=np.zeros((nj, 3)), anchor_b=np.zeros((nj, 3)),
+                   frame_a=np.zeros((nj, 4)), frame_b=np.zeros((nj, 4)),
+                   limit=np.array([j["limit"] for j in self._joints]).reshape(nj, 2))
+        for key in ("erp", "cfm", "stiffness", "soft_damping", "damping", "friction", "motor_max"):
+            out[key] = np.array([j[key] for j in self._joints], dtype=float)
+        out["core_rows"] = np.array([CORE_ROWS[t] for t in out["type"]], np.int32)
+        out["ndof"] = np.array([DOFS[t] for t in out["type"]], np.int32)
+        out["row_count"] = out["core_rows"] + ROWS_PER_DOF * out["ndof"]
+        out["row_start"] = (np.cumsum(out["row_count"]) - out["row_count"]).astype(np.int32)
+        out["nrow"] = int(out["row_count"].sum())
+        for i, j in enumerate(self._joints):
+            frame_w = Rotation.from_matrix(j["frame"])
+            for side, body in (("a", j["parent"]), ("b", j["child"])):
+                if body < 0:
+                    out["anchor_" + side][i] = j["anchor"]
+                    out["frame_" + side][i] = frame_w.as_quat()
+                    continue
+                r_body = Rotation.from_quat(b["quat"][body])
+                out["anchor_" + side][i] = r_body.inv().apply(j["anchor"] - b["pos"][body])
+                out["frame_" + side][i] = (r_body.inv() * frame_w).as_quat()
+        return out
 
     @staticmethod
     def _body_mass(d, geoms):

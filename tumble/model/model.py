@@ -22,6 +22,24 @@ ModelArrays = namedtuple("ModelArrays", [
     "body_inv_mass",      # (nbody,) 1/kg, 0 for kinematic and static bodies
     "body_inertia",       # (nbody, 3) principal moments, kg m^2 (0 when not dynamic)
     "body_inv_inertia",   # (nbody, 3) their inverses, 0 when not dynamic
+    "joint_type",         # (njoint,) int32 codes of pipeline.joints.types
+    "joint_parent",       # (njoint,) int32 parent body, -1 for the world
+    "joint_child",        # (njoint,) int32 child body
+    "joint_anchor_a",     # (njoint, 3) anchor in the parent's COM frame (world if -1), m
+    "joint_anchor_b",     # (njoint, 3) anchor in the child's COM frame, m
+    "joint_frame_a",      # (njoint, 4) joint frame in the parent's frame (x = axis 1)
+    "joint_frame_b",      # (njoint, 4) joint frame in the child's frame
+    "joint_erp",          # (njoint,) ERP override, < 0: the world's
+    "joint_cfm",          # (njoint,) CFM override, < 0: the world's
+    "joint_stiffness",    # (njoint,) soft joint spring k (0: rigid)
+    "joint_soft_damping", # (njoint,) soft joint damper c
+    "joint_damping",      # (njoint,) viscous damping on each DoF, N m s/rad or N s/m
+    "joint_friction",     # (njoint,) dry friction on each DoF, N m or N
+    "joint_motor_max",    # (njoint,) motor force/torque bound, 0: no motor
+    "joint_limit",        # (njoint, 2) lower, upper (lower > upper: no limit)
+    "joint_core_rows",    # (njoint,) rows that hold the joint together
+    "joint_row_start",    # (njoint,) first row of each joint
+    "joint_row_count",    # (njoint,) rows of each joint (core + 4 per DoF)
 ])
 
 
@@ -47,9 +65,12 @@ class Model:
     geom_names, geom_body (-1 = world), geom_type (codes of GEOM_TYPES), geom_size (ngeom, 3),
     geom_pos, geom_quat (pose in the owning body's COM principal frame, or world),
     geom_friction, geom_restitution, geom_contype, geom_conaffinity.
+    joint_names, joint_type_names, joint_parent (-1 = world), joint_child, joint_ndof,
+    joint_limit (njoint, 2), joint_damping, joint_friction, joint_motor_max, and the
+    frames and anchors of each joint in its bodies (see ``ModelArrays``).
     """
 
-    def __init__(self, *, gravity, timestep, bodies, geoms):
+    def __init__(self, *, gravity, timestep, bodies, geoms, joints):
         self.gravity = _frozen(np.asarray(gravity, float))
         self.timestep = float(timestep)
         self.body_names = list(bodies["names"])
@@ -73,7 +94,14 @@ class Model:
         self.geom_restitution = _frozen(geoms["restitution"])
         self.geom_contype = _frozen(geoms["contype"])
         self.geom_conaffinity = _frozen(geoms["conaffinity"])
-        self.joint_names = []
+        self.joint_names = list(joints["names"])
+        self._joint_index = {n: i for i, n in enumerate(self.joint_names)}
+        self.joint_type_names = list(joints["type_names"])
+        for key in ("type", "parent", "child", "anchor_a", "anchor_b", "frame_a", "frame_b",
+                    "erp", "cfm", "stiffness", "soft_damping", "damping", "friction",
+                    "motor_max", "limit", "core_rows", "row_start", "row_count", "ndof"):
+            setattr(self, "joint_" + key, _frozen(joints[key]))
+        self.nrow = int(joints["nrow"])
 
         dynamic = self.body_kind == DYNAMIC
         inertia = np.where(dynamic[:, None], self.body_inertia, 0.0)
@@ -83,7 +111,12 @@ class Model:
         self.arrays = ModelArrays(gravity=self.gravity, body_kind=self.body_kind,
                                   body_inv_mass=_frozen(inv_mass),
                                   body_inertia=_frozen(inertia),
-                                  body_inv_inertia=_frozen(inv_inertia))
+                                  body_inv_inertia=_frozen(inv_inertia),
+                                  **{"joint_" + k: getattr(self, "joint_" + k) for k in (
+                                      "type", "parent", "child", "anchor_a", "anchor_b",
+                                      "frame_a", "frame_b", "erp", "cfm", "stiffness",
+                                      "soft_damping", "damping", "friction", "motor_max",
+                                      "limit", "core_rows", "row_start", "row_count")})
         self._seal()
 
     def __setattr__(self, name, value):
@@ -115,5 +148,22 @@ class Model:
                 raise ModelError(f"unknown body '{body}'; bodies are {self.body_names}") from None
         raise ModelError(f"a body is given by its index or name, got {body!r}")
 
+    @property
+    def njoint(self):
+        return len(self.joint_names)
+
+    def joint_index(self, joint):
+        """Index of a joint given by index or name; ModelError names an unknown one."""
+        if isinstance(joint, (int, np.integer)) and not isinstance(joint, bool):
+            if 0 <= joint < self.njoint:
+                return int(joint)
+            raise ModelError(f"joint index {joint} out of range: the model has {self.njoint} joints")
+        if isinstance(joint, str):
+            try:
+                return self._joint_index[joint]
+            except KeyError:
+                raise ModelError(f"unknown joint '{joint}'; joints are {self.joint_names}") from None
+        raise ModelError(f"a joint is given by its index or name, got {joint!r}")
+
     def __repr__(self):
-        return f"<tumble.Model: {self.nbody} bodies, {self.ngeom} geoms>"
+        return f"<tumble.Model: {self.nbody} bodies, {self.njoint} joints, {self.ngeom} geoms>"

@@ -1,0 +1,82 @@
+"""What both solvers need: rows, effective masses, applying an impulse."""
+from collections import namedtuple
+
+import numpy as np
+from numba import njit
+
+from ...math.spatial import inertia_world_inv
+from ...model.model import DYNAMIC
+
+Rows = namedtuple("Rows", ["body_a", "body_b", "J", "rhs", "cfm", "lo", "hi"])
+
+
+@njit(cache=True)
+def make_rows_nb(nrow):
+    """Empty row arrays for ``nrow`` rows (see joints/common.py for their meaning)."""
+    return Rows(np.full(nrow, -1, np.int32), np.full(nrow, -1, np.int32), np.zeros((nrow, 12)),
+                np.zeros(nrow), np.zeros(nrow), np.zeros(nrow), np.zeros(nrow))
+
+
+@njit(cache=True)
+def world_inverse_inertia(m, quat, out):
+    """(nbody, 3, 3) inverse world inertia of each dynamic body; zero for the others."""
+    for b in range(quat.shape[0]):
+        if m.body_kind[b] != DYNAMIC:
+            out[b] = 0.0
+            continue
+        a = inertia_world_inv(quat[b], m.body_inv_inertia[b])
+        for i in range(3):
+            for k in range(3):
+                out[b, i, k] = a[i][k]
+
+
+@njit(cache=True, inline="always")
+def row_active(rows, r):
+    return not (rows.lo[r] == 0.0 and rows.hi[r] == 0.0)
+
+
+@njit(cache=True)
+def minv_jt(rows, r, inv_mass, inv_inertia, out):
+    """``M^-1 J_r^T`` (12,) for row r: the velocity change per unit impulse."""
+    for side in range(2):
+        b = rows.body_a[r] if side == 0 else rows.body_b[r]
+        o = 6 * side
+        if b < 0:
+            for k in range(6):
+                out[o + k] = 0.0
+            continue
+        im = inv_mass[b]
+        for k in range(3):
+            out[o + k] = im * rows.J[r, o + k]
+        for i in range(3):
+            s = 0.0
+            for k in range(3):
+                s += inv_inertia[b, i, k] * rows.J[r, o + 3 + k]
+            out[o + 3 + i] = s
+
+
+@njit(cache=True, inline="always")
+def row_velocity(rows, r, vel, angvel):
+    """``J_r v``: the row's current velocity."""
+    s = 0.0
+    for side in range(2):
+        b = rows.body_a[r] if side == 0 else rows.body_b[r]
+        if b < 0:
+            continue
+        o = 6 * side
+        for k in range(3):
+            s += rows.J[r, o + k] * vel[b, k] + rows.J[r, o + 3 + k] * angvel[b, k]
+    return s
+
+
+@njit(cache=True, inline="always")
+def apply_impulse(rows, r, dv, p, vel, angvel):
+    """Add ``p`` times the row's velocity change ``dv`` (12,) to both bodies."""
+    for side in range(2):
+        b = rows.body_a[r] if side == 0 else rows.body_b[r]
+        if b < 0:
+            continue
+        o = 6 * side
+        for k in range(3):
+            vel[b, k] += dv[o + k] * p
+            angvel[b, k] += dv[o + 3 + k] * p
