@@ -13,7 +13,7 @@ from ..errors import ModelError, TumbleWarning
 from ..pipeline.joints.types import CORE_ROWS, DOFS, JOINT_TYPES, ROWS_PER_DOF
 from . import mass as massprops
 from .model import BODY_KINDS, GEOM_TYPES, Model
-from .validate import positive, unit_quat, unit_vector, vector
+from .validate import index_of, positive, unit_quat, unit_vector, vector
 
 _MASSIVE_SHAPES = ("sphere", "box", "capsule", "cylinder")
 
@@ -97,16 +97,7 @@ class ModelBuilder:
 
     def body_index(self, body):
         """Index of a body given by index or name (ModelError if unknown)."""
-        if isinstance(body, (int, np.integer)) and not isinstance(body, bool):
-            if 0 <= body < len(self._bodies):
-                return int(body)
-            raise ModelError(f"body index {body} out of range: the builder has "
-                             f"{len(self._bodies)} bodies")
-        if isinstance(body, str):
-            if body in self._body_index:
-                return self._body_index[body]
-            raise ModelError(f"unknown body '{body}'; bodies are {list(self._body_index)}")
-        raise ModelError(f"a body is given by its index or name, got {body!r}")
+        return index_of(body, self._body_index, "body")
 
     # ------------------------------------------------------------------- geoms
     def add_geom(self, body, type, size=None, *, radius=None, half_length=None, normal=None,

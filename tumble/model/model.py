@@ -9,7 +9,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from ..errors import ModelError
+from .validate import index_of
 
 BODY_KINDS = {"dynamic": 0, "kinematic": 1, "static": 2}
 DYNAMIC, KINEMATIC, STATIC = 0, 1, 2
@@ -137,16 +137,7 @@ class Model:
 
     def body_index(self, body):
         """Index of a body given by index or name; ModelError names an unknown one."""
-        if isinstance(body, (int, np.integer)) and not isinstance(body, bool):
-            if 0 <= body < self.nbody:
-                return int(body)
-            raise ModelError(f"body index {body} out of range: the model has {self.nbody} bodies")
-        if isinstance(body, str):
-            try:
-                return self._body_index[body]
-            except KeyError:
-                raise ModelError(f"unknown body '{body}'; bodies are {self.body_names}") from None
-        raise ModelError(f"a body is given by its index or name, got {body!r}")
+        return index_of(body, self._body_index, "body")
 
     @property
     def njoint(self):
@@ -154,16 +145,7 @@ class Model:
 
     def joint_index(self, joint):
         """Index of a joint given by index or name; ModelError names an unknown one."""
-        if isinstance(joint, (int, np.integer)) and not isinstance(joint, bool):
-            if 0 <= joint < self.njoint:
-                return int(joint)
-            raise ModelError(f"joint index {joint} out of range: the model has {self.njoint} joints")
-        if isinstance(joint, str):
-            try:
-                return self._joint_index[joint]
-            except KeyError:
-                raise ModelError(f"unknown joint '{joint}'; joints are {self.joint_names}") from None
-        raise ModelError(f"a joint is given by its index or name, got {joint!r}")
+        return index_of(joint, self._joint_index, "joint")
 
     def __repr__(self):
         return f"<tumble.Model: {self.nbody} bodies, {self.njoint} joints, {self.ngeom} geoms>"

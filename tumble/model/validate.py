@@ -53,3 +53,20 @@ def unit_vector(value, where, field):
     if n < 1e-12:
         raise ModelError(f"{where}: {field} is the zero vector")
     return v / n
+
+
+def index_of(value, index, kind):
+    """Index of a body/joint given by index or name; ``index`` maps names to indices.
+
+    ``kind`` ('body', 'joint') names the thing in messages.
+    """
+    count = len(index)
+    if isinstance(value, (int, np.integer)) and not isinstance(value, bool):
+        if 0 <= value < count:
+            return int(value)
+        raise ModelError(f"{kind} index {value} out of range: there are {count} {kind}s")
+    if isinstance(value, str):
+        if value in index:
+            return index[value]
+        raise ModelError(f"unknown {kind} '{value}'; {kind}s are {list(index)}")
+    raise ModelError(f"a {kind} is given by its index or name, got {value!r}")
