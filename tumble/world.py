@@ -8,11 +8,14 @@ from .math.quat import quat_rotate, quat_rotate_inv
 from .model.model import DYNAMIC, KINEMATIC, STATIC, Model
 from .model.validate import positive
 from .pipeline import step as pipeline_step
+from .pipeline.contacts.arrays import make_contacts
+from .pipeline.contacts.penalty import default_penalty
 from .pipeline.integrate import GYRO_EXPLICIT, GYRO_IMPLICIT, GYRO_NONE, QUAT_EXP, QUAT_LINEAR
 
 GYROSCOPIC = {"implicit": GYRO_IMPLICIT, "explicit": GYRO_EXPLICIT, "none": GYRO_NONE}
 QUAT_INTEGRATION = {"exp": QUAT_EXP, "linear": QUAT_LINEAR}
-CONTACT_MODELS = ("lcp", "pgs", "penalty")
+CONTACT_MODELS = {"lcp": pipeline_step.CONTACT_LCP, "pgs": pipeline_step.CONTACT_PGS,
+                  "penalty": pipeline_step.CONTACT_PENALTY}
 SOLVERS = {"direct": pipeline_step.SOLVER_DIRECT, "pgs": pipeline_step.SOLVER_PGS}
 
 _STATE_FIELDS = {
@@ -24,6 +27,31 @@ _STATE_FIELDS = {
     pipeline_step.STATE_NONFINITE_FORCE: "the applied force is not finite",
     pipeline_step.STATE_NONFINITE_TORQUE: "the applied torque is not finite",
 }
+
+
+@dataclass
+class Contacts:
+    """Contacts of one step, as arrays over n contacts (see ``World.contacts_of``)."""
+    geoms: np.ndarray
+    bodies: np.ndarray
+    point: np.ndarray
+    normal: np.ndarray
+    depth: np.ndarray
+    force: np.ndarray
+    normal_force: np.ndarray
+
+    def __len__(self):
+        return len(self.depth)
+
+
+def _tangents(normal):
+    """The tangents ``contacts.rows.tangents`` picks, vectorised over (n, 3) normals."""
+    n = normal
+    use_x = np.abs(n[:, 0]) < 0.57735
+    a = np.where(use_x[:, None], np.stack([np.zeros(len(n)), n[:, 2], -n[:, 1]], -1),
+                 np.stack([-n[:, 2], np.zeros(len(n)), n[:, 0]], -1))
+    t1 = a / np.maximum(np.linalg.norm(a, axis=1, keepdims=True), 1e-300)
+    return t1, np.cross(n, t1)
 
 
 @dataclass
@@ -63,6 +91,15 @@ class World:
     warm_start : start PGS from the previous step's impulses.
     projection : Gauss-Newton iterations that move joints back together after each position
         update without touching velocities (post-stabilisation; 0 to rely on ERP alone).
+    contact_erp, contact_cfm : ERP and CFM of contact rows (penetration pushed out per step,
+        softness).
+    contact_margin : contacts are found this far apart (m) so the solver stops a fast body
+        at the surface instead of pushing it out afterwards (penalty ignores the gap).
+    slop : penetration (m) left alone, so resting contacts do not jitter.
+    bounce_threshold : approach speed (m/s) below which restitution is ignored.
+    penalty_stiffness, penalty_damping : N/m and N s/m of penalty contacts; default from the
+        lightest colliding body (see ``tumble.pipeline.contacts.penalty``).
+    slip_velocity : penalty friction's regularisation speed (m/s); default ``|g| dt``.
     projection_tolerance : largest row error (m, rad) past which projection runs; below it ERP
         alone pulls joints together, which dissipates less.
 
@@ -72,8 +109,10 @@ class World:
 
     def __init__(self, model, dt=None, *, contact="lcp", nworld=1, gyroscopic="implicit",
                  quat_integration="exp", divergence_limit=1e8, solver="direct", erp=0.2,
-                 cfm=1e-10, iterations=100, tolerance=1e-10, warm_start=True, projection=2,
-                 projection_tolerance=5e-5):
+                 cfm=1e-10, iterations=300, tolerance=1e-12, warm_start=True, projection=2,
+                 projection_tolerance=5e-5, contact_erp=0.2, contact_cfm=0.0, slop=1e-4,
+                 bounce_threshold=0.2, penalty_stiffness=None, penalty_damping=None,
+                 slip_velocity=None, contact_margin=0.01):
         if not isinstance(model, Model):
             raise ModelError(f"World needs a tumble Model, got {type(model).__name__}")
         self.model = model
@@ -112,6 +151,21 @@ class World:
         self.projection = int(projection)
         self.projection_tolerance = positive(projection_tolerance, "world",
                                              "projection_tolerance", allow_zero=True)
+        self.contact_erp = positive(contact_erp, "world", "contact_erp", allow_zero=True)
+        if self.contact_erp > 1.0:
+            raise ModelError(f"world: contact_erp must be in [0, 1], got {contact_erp!r}")
+        self.contact_cfm = positive(contact_cfm, "world", "contact_cfm", allow_zero=True)
+        self.slop = positive(slop, "world", "slop", allow_zero=True)
+        self.contact_margin = positive(contact_margin, "world", "contact_margin",
+                                       allow_zero=True)
+        self.bounce_threshold = positive(bounce_threshold, "world", "bounce_threshold",
+                                         allow_zero=True)
+        self.penalty_stiffness = None if penalty_stiffness is None else positive(
+            penalty_stiffness, "world", "penalty_stiffness")
+        self.penalty_damping = None if penalty_damping is None else positive(
+            penalty_damping, "world", "penalty_damping", allow_zero=True)
+        self.slip_velocity = None if slip_velocity is None else positive(
+            slip_velocity, "world", "slip_velocity")
         self.nworld = int(nworld)
         nb, nw, nj = model.nbody, self.nworld, model.njoint
         self._state = pipeline_step.StateArrays(
@@ -121,7 +175,9 @@ class World:
             row_impulse=np.zeros((nw, model.nrow)), motor_target=np.zeros((nw, nj, 3)),
             joint_q=np.zeros((nw, nj, 3)), joint_qd=np.zeros((nw, nj, 3)),
             joint_qrel=np.zeros((nw, nj, 4)), joint_force=np.zeros((nw, nj, 3)),
-            joint_torque=np.zeros((nw, nj, 3)))
+            joint_torque=np.zeros((nw, nj, 3)), contact_count=np.zeros(nw, np.int64))
+        self._contacts = make_contacts(nw, 8 * model.ngeom + 64)
+        self._pairs = np.zeros((8 * model.ngeom + 64, 2), np.int32)
         self.reset()
 
     @property
@@ -147,6 +203,7 @@ class World:
         s.motor_target[:] = 0.0
         s.joint_force[:] = 0.0
         s.joint_torque[:] = 0.0
+        s.contact_count[:] = 0
         self.time = 0.0
         self._update_joint_coordinates()
 
@@ -255,13 +312,17 @@ class World:
         if not np.all(np.isfinite(s.motor_target)):
             raise StateError("joint_motor_target is not finite")
         self._enforce_static()
-        options = pipeline_step.StepOptions(
-            float(self.dt), GYROSCOPIC[self.gyroscopic], QUAT_INTEGRATION[self.quat_integration],
-            float(self.divergence_limit), float(self.erp), float(self.cfm), SOLVERS[self.solver],
-            self.iterations, float(self.tolerance), self.warm_start, self.projection,
-            float(self.projection_tolerance))
-        w, k, b = pipeline_step.step_worlds(self.model.arrays, s, int(n), options)
-        if k >= 0:
+        options = self._options()
+        while True:
+            status, w, k, b, needed = pipeline_step.step_worlds(
+                self.model.arrays, s, self._contacts, self._pairs, int(n), options)
+            if status == pipeline_step.STEP_MORE_PAIRS:
+                self._pairs = np.zeros((2 * needed, 2), np.int32)
+            elif status == pipeline_step.STEP_MORE_CONTACTS:
+                self._grow_contacts(needed)
+            else:
+                break
+        if status == pipeline_step.STEP_DIVERGED:
             t = self.time + k * self.dt
             where = f"body '{self.model.body_names[b]}'" + (f" in world {w}" if self.nworld > 1 else "")
             raise SimulationError(
@@ -272,6 +333,34 @@ class World:
         self.time += n * self.dt
         s.applied_force[:] = 0.0
         s.applied_torque[:] = 0.0
+
+    def _options(self):
+        k, c = self.penalty_parameters()
+        g = float(np.linalg.norm(self.model.gravity))
+        v_slip = self.slip_velocity or max(g * self.dt, 1e-3)
+        return pipeline_step.StepOptions(
+            float(self.dt), GYROSCOPIC[self.gyroscopic], QUAT_INTEGRATION[self.quat_integration],
+            float(self.divergence_limit), float(self.erp), float(self.cfm), SOLVERS[self.solver],
+            self.iterations, float(self.tolerance), self.warm_start, self.projection,
+            float(self.projection_tolerance), CONTACT_MODELS[self.contact],
+            float(self.contact_erp), float(self.contact_cfm), float(self.slop),
+            float(self.bounce_threshold), float(k), float(c), float(v_slip),
+            float(self.contact_margin))
+
+    def penalty_parameters(self):
+        """(stiffness N/m, damping N s/m) of penalty contacts at the current dt."""
+        masses = self.model.body_mass[np.isin(np.arange(self.model.nbody), self.model.geom_body)
+                                      & (self.model.body_kind == DYNAMIC)]
+        k, c = default_penalty(float(masses.min()) if masses.size else 1.0, self.dt)
+        return (self.penalty_stiffness or k,
+                c if self.penalty_damping is None else self.penalty_damping)
+
+    def _grow_contacts(self, needed):
+        old, n = self._contacts, self._contacts.depth.shape[1]
+        new = make_contacts(self.nworld, max(needed, 2 * n))
+        for a, b in zip(new, old):
+            a[:, :n] = b
+        self._contacts = new
 
     def _enforce_static(self):
         static = self.model.body_kind == STATIC
@@ -323,6 +412,39 @@ class World:
                                                   s.body_quat[w], j)[:2]
                 out[w, j] = np.linalg.norm(np.subtract(anchor_b, anchor_a))
         return self._view(out)
+
+    # --------------------------------------------------------------- contacts
+    @property
+    def contacts(self):
+        """The contacts of the last step (world 0 of a batch; see ``contacts_of``)."""
+        return self.contacts_of(0)
+
+    def contacts_of(self, world):
+        """Contacts of the last step in one world, as a ``Contacts`` of arrays (n contacts):
+        ``geoms`` (n, 2), ``bodies`` (n, 2) (-1 = world), ``point`` (n, 3), ``normal`` (n, 3)
+        from the first geom to the second, ``depth`` (n,) m, ``force`` (n, 3) on the second
+        body in the world frame, N (the first gets the opposite), ``normal_force`` (n,) N."""
+        w = self._world_slice(world) if world is not None else 0
+        n = int(self._state.contact_count[w])
+        c = self._contacts
+        point, normal = c.point[w, :n].copy(), c.normal[w, :n].copy()
+        t1, t2 = _tangents(normal)
+        imp = c.impulse[w, :n] / self.dt
+        force = imp[:, :1] * normal + imp[:, 1:2] * t1 + imp[:, 2:3] * t2
+        return Contacts(c.geom[w, :n].copy(), c.body[w, :n].copy(), point, normal,
+                        c.depth[w, :n].copy(), force, imp[:, 0].copy())
+
+    def contact_force(self, body, *, world=None):
+        """Total contact force (N) and torque about the COM (N m) on ``body`` over the last step."""
+        b = self.model.body_index(body)
+        con = self.contacts_of(world)
+        f, t = np.zeros(3), np.zeros(3)
+        com = self._state.body_pos[0 if world is None else world, b]
+        for sign, side in ((-1.0, 0), (1.0, 1)):
+            mine = con.bodies[:, side] == b
+            f += sign * con.force[mine].sum(0)
+            t += sign * np.cross(con.point[mine] - com, con.force[mine]).sum(0)
+        return f, t
 
     # ----------------------------------------------------------------- forces
     def _world_slice(self, world):

@@ -18,6 +18,14 @@ from .validate import index_of, positive, unit_quat, unit_vector, vector
 _MASSIVE_SHAPES = ("sphere", "box", "capsule", "cylinder")
 
 
+def body_pair_key(a, b, nbody):
+    """Order-free key of a body pair as used by ``Model.exclude_keys``; the world (-1)
+    counts as body ``nbody``."""
+    a = nbody if a < 0 else a
+    b = nbody if b < 0 else b
+    return min(a, b) * (nbody + 1) + max(a, b)
+
+
 def _quat_z_to(normal):
     """Unit quaternion (x, y, z, w) rotating +z onto the unit vector ``normal``."""
     z = np.array([0.0, 0.0, 1.0])
@@ -47,6 +55,7 @@ class ModelBuilder:
         self._geom_names = set()
         self._joints = []
         self._joint_names = set()
+        self._excluded = set()
 
     # ------------------------------------------------------------------ bodies
     def add_body(self, name, pos=(0.0, 0.0, 0.0), quat=(0.0, 0.0, 0.0, 1.0), *, mass=None,
@@ -102,7 +111,7 @@ class ModelBuilder:
     # ------------------------------------------------------------------- geoms
     def add_geom(self, body, type, size=None, *, radius=None, half_length=None, normal=None,
                  pos=(0.0, 0.0, 0.0), quat=(0.0, 0.0, 0.0, 1.0), friction=1.0, restitution=0.0,
-                 density=None, contype=1, conaffinity=1, name=None):
+                 density=None, contype=1, conaffinity=1, margin=0.0, name=None):
         """Attach a collision shape to ``body`` (index or name; None: the static world).
 
         type : 'plane', 'sphere', 'capsule', 'box' or 'cylinder'.
@@ -116,7 +125,10 @@ class ModelBuilder:
         friction, restitution : Coulomb coefficient (>= 0) and bounce (0..1).
         density : kg/m^3 for this geom when the body's mass comes from its geoms.
         contype, conaffinity : collision bits (MuJoCo semantics: two geoms may collide
-            when ``contype_a & conaffinity_b`` or ``contype_b & conaffinity_a``).
+            when ``contype_a & conaffinity_b`` or ``contype_b & conaffinity_a``); set both
+            to 0 to disable the geom's collisions.
+        margin : contacts are reported from this distance apart (m), so solvers see them
+            coming; the pair uses the larger margin of its two geoms.
         Returns the geom index.
         """
         gname = name if name is not None else f"geom{len(self._geoms)}"
@@ -151,6 +163,7 @@ class ModelBuilder:
         if rest > 1.0:
             raise ModelError(f"{where}: restitution must be in [0, 1], got {restitution!r}")
         dens = None if density is None else positive(density, where, "density")
+        gmargin = positive(margin, where, "margin", allow_zero=True)
         for field, bits in (("contype", contype), ("conaffinity", conaffinity)):
             if isinstance(bits, bool) or not isinstance(bits, (int, np.integer)) or not 0 <= bits < 2**32:
                 raise ModelError(f"{where}: {field} must be an integer bit mask in [0, 2^32), "
@@ -158,7 +171,8 @@ class ModelBuilder:
         self._geom_names.add(gname)
         self._geoms.append(dict(name=gname, body=body_idx, type=type, size=geom_size, pos=gpos,
                                 quat=gquat, friction=fr, restitution=rest, density=dens,
-                                contype=int(contype), conaffinity=int(conaffinity)))
+                                contype=int(contype), conaffinity=int(conaffinity),
+                                margin=gmargin))
         return len(self._geoms) - 1
 
     @staticmethod
@@ -200,7 +214,7 @@ class ModelBuilder:
     # ------------------------------------------------------------------ joints
     def add_joint(self, name, type, parent, child, anchor=None, axis=None, axis2=None, *,
                   limit=None, damping=0.0, friction=0.0, motor_max_force=0.0, erp=None,
-                  cfm=None, spring=None):
+                  cfm=None, spring=None, collide=False):
         """Join ``child`` to ``parent`` (index or name; None: the world). Returns the index.
 
         type : 'ball', 'hinge' (axis), 'universal' (axis on the parent, axis2 on the
@@ -217,6 +231,7 @@ class ModelBuilder:
             (default: the world's).
         spring : (k, c) to make the joint soft: its rows act as a spring k and damper c at
             every step size (ERP = hk / (hk + c), CFM = 1 / (hk + c)).
+        collide : whether the two joined bodies may still collide (default False).
         """
         where = f"joint '{name}'"
         if not isinstance(name, str) or not name:
@@ -298,7 +313,17 @@ class ModelBuilder:
                           TumbleWarning, stacklevel=2)
         self._joint_names.add(name)
         self._joints.append(entry)
+        if not collide:
+            self._excluded.add((min(p, c), max(p, c)))
         return len(self._joints) - 1
+
+    def exclude_collision(self, body_a, body_b):
+        """Never let these two bodies (index or name; None: the world) collide."""
+        a = -1 if body_a is None else self.body_index(body_a)
+        b = -1 if body_b is None else self.body_index(body_b)
+        if a == b:
+            raise ModelError(f"exclude_collision: body {body_a!r} given twice")
+        self._excluded.add((min(a, b), max(a, b)))
 
     # ------------------------------------------------------------------- build
     def build(self):
@@ -343,7 +368,11 @@ class ModelBuilder:
                  friction=np.array([x["friction"] for x in self._geoms], dtype=float),
                  restitution=np.array([x["restitution"] for x in self._geoms], dtype=float),
                  contype=np.array([x["contype"] for x in self._geoms], dtype=np.uint32),
-                 conaffinity=np.array([x["conaffinity"] for x in self._geoms], dtype=np.uint32))
+                 conaffinity=np.array([x["conaffinity"] for x in self._geoms], dtype=np.uint32),
+                 margin=np.array([x["margin"] for x in self._geoms], dtype=float),
+                 dataid=np.full(ng, -1, np.int32))
+        g["exclude_keys"] = np.array(sorted(body_pair_key(a, c, nb) for a, c in self._excluded),
+                                     dtype=np.int64)
         for gi, x in enumerate(self._geoms):
             if x["body"] < 0:
                 g["pos"][gi], g["quat"][gi] = x["pos"], x["quat"]

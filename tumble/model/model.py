@@ -40,6 +40,26 @@ ModelArrays = namedtuple("ModelArrays", [
     "joint_core_rows",    # (njoint,) rows that hold the joint together
     "joint_row_start",    # (njoint,) first row of each joint
     "joint_row_count",    # (njoint,) rows of each joint (core + 4 per DoF)
+    "geom_type",          # (ngeom,) int32 shape codes (pipeline.collision.shapes)
+    "geom_body",          # (ngeom,) int32 owning body, -1 for the world
+    "geom_size",          # (ngeom, 3) shape size
+    "geom_pos",           # (ngeom, 3) position in the body's COM frame (world if -1)
+    "geom_quat",          # (ngeom, 4) orientation in the body's COM frame
+    "geom_friction",      # (ngeom,) Coulomb coefficient
+    "geom_restitution",   # (ngeom,) coefficient of restitution
+    "geom_contype",       # (ngeom,) uint32 collision type bits
+    "geom_conaffinity",   # (ngeom,) uint32 collision affinity bits
+    "geom_margin",        # (ngeom,) contact margin, m
+    "geom_dataid",        # (ngeom,) int32 mesh or heightfield index, -1 for primitives
+    "mesh_vert_adr",      # (nmesh,) int32 first row of each convex mesh in mesh_vert
+    "mesh_vert_num",      # (nmesh,) int32 vertex count
+    "mesh_vert",          # (nvert, 3) hull vertices in the geom frame, m
+    "hfield_adr",         # (nhfield,) int32 offset into hfield_data
+    "hfield_nrow",        # (nhfield,) int32
+    "hfield_ncol",        # (nhfield,) int32
+    "hfield_data",        # (total,) heights, m, row-major
+    "exclude_keys",       # (nexclude,) int64 sorted keys min(a,b) * (nbody+1) + max(a,b) of
+                          # body pairs that never collide (world = nbody)
 ])
 
 
@@ -94,6 +114,9 @@ class Model:
         self.geom_restitution = _frozen(geoms["restitution"])
         self.geom_contype = _frozen(geoms["contype"])
         self.geom_conaffinity = _frozen(geoms["conaffinity"])
+        self.geom_margin = _frozen(geoms["margin"])
+        self.geom_dataid = _frozen(geoms["dataid"])
+        self.exclude_keys = _frozen(np.asarray(geoms["exclude_keys"], dtype=np.int64))
         self.joint_names = list(joints["names"])
         self._joint_index = {n: i for i, n in enumerate(self.joint_names)}
         self.joint_type_names = list(joints["type_names"])
@@ -116,7 +139,19 @@ class Model:
                                       "type", "parent", "child", "anchor_a", "anchor_b",
                                       "frame_a", "frame_b", "erp", "cfm", "stiffness",
                                       "soft_damping", "damping", "friction", "motor_max",
-                                      "limit", "core_rows", "row_start", "row_count")})
+                                      "limit", "core_rows", "row_start", "row_count")},
+                                  **{k: getattr(self, k) for k in (
+                                      "geom_type", "geom_body", "geom_size", "geom_pos",
+                                      "geom_quat", "geom_friction", "geom_restitution",
+                                      "geom_contype", "geom_conaffinity", "geom_margin",
+                                      "geom_dataid", "exclude_keys")},
+                                  mesh_vert_adr=_frozen(np.zeros(0, np.int32)),
+                                  mesh_vert_num=_frozen(np.zeros(0, np.int32)),
+                                  mesh_vert=_frozen(np.zeros((0, 3))),
+                                  hfield_adr=_frozen(np.zeros(0, np.int32)),
+                                  hfield_nrow=_frozen(np.zeros(0, np.int32)),
+                                  hfield_ncol=_frozen(np.zeros(0, np.int32)),
+                                  hfield_data=_frozen(np.zeros(0)))
         self._seal()
 
     def __setattr__(self, name, value):

@@ -1,8 +1,11 @@
 """The step: every stage of the pipeline, in order, ``n`` times, in one compiled call.
 
+    collide.collide_world           contacts: broad phase, filtering, narrow phase
     forces.accumulate_forces        gravity + applied forces and torques
+    contacts.penalty                spring-damper contact forces (contact="penalty")
     integrate.integrate_velocities  Newton-Euler, gyroscopic term explicit or implicit
     joints.rows.build_joint_rows    constraint rows of every joint (ERP/CFM, limits, motors)
+    contacts.rows                   normal and friction rows of every contact
     solvers.direct / solvers.pgs    impulses that satisfy the rows; constrained velocities
     joints.rows.joint_reactions     each joint's force and torque on its child
     integrate.integrate_positions   positions and orientations with the new velocities
@@ -19,21 +22,30 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
+from .collide import COLLIDE_OK, COLLIDE_PAIRS_FULL, collide_world
+from .contacts.arrays import ContactArrays, make_contacts_nb
+from .contacts.penalty import penalty_forces
+from .contacts.rows import build_contact_rows, store_contact_impulses
 from .forces import accumulate_forces
 from .integrate import first_bad_body, integrate_positions, integrate_velocities
 from .joints.rows import build_joint_rows, joint_coordinates, joint_reactions
-from .solvers.common import make_rows_nb, world_inverse_inertia
+from .solvers.common import friction_bounds, make_rows_nb, world_inverse_inertia
 from .solvers.direct import solve_direct
 from .solvers.pgs import solve_pgs
 from .stabilize import project_joints
 
 SOLVER_DIRECT, SOLVER_PGS = 0, 1
+CONTACT_LCP, CONTACT_PGS, CONTACT_PENALTY = 0, 1, 2
+STEP_OK, STEP_DIVERGED, STEP_MORE_PAIRS, STEP_MORE_CONTACTS = 0, 1, 2, 3
+# Exact contact solves re-solve this many times as friction bounds follow normal impulses.
+_FRICTION_PASSES = 3
 
 # Scalars that configure a step.
 StepOptions = namedtuple("StepOptions", [
     "dt", "gyroscopic", "quat_integration", "divergence_limit",
     "erp", "cfm", "solver", "iterations", "tolerance", "warm_start", "projection",
-    "projection_tolerance"])
+    "projection_tolerance", "contact", "contact_erp", "contact_cfm", "slop",
+    "bounce_threshold", "penalty_k", "penalty_c", "v_slip", "contact_margin"])
 
 # Everything that changes while stepping, for the compiled step.
 StateArrays = namedtuple("StateArrays", [
@@ -50,6 +62,7 @@ StateArrays = namedtuple("StateArrays", [
     "joint_qrel",      # (nworld, njoint, 4) child joint frame relative to the parent's
     "joint_force",     # (nworld, njoint, 3) force of the joint on its child, N, world
     "joint_torque",    # (nworld, njoint, 3) torque on the child about the anchor, N m, world
+    "contact_count",   # (nworld,) int64 contacts found in the last step
 ])
 
 # What check_state found wrong, by field.
@@ -97,55 +110,128 @@ def check_state(s):
 
 
 @njit(cache=True)
-def step_worlds(m, s, n, o):
-    """Advance every world of state ``s`` by ``n`` steps.
+def solve_rows(m, rows, nrow, njrow, ncon, inv_inertia, vel, angvel, imp, o):
+    """Solve joint and contact rows together with the solver the options pick."""
+    if o.contact == CONTACT_PGS or (o.solver == SOLVER_PGS and ncon == 0):
+        solve_pgs(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp, o.iterations,
+                  o.tolerance, o.warm_start)
+        return
+    if ncon == 0 or o.contact == CONTACT_PENALTY:
+        solve_direct(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp, o.tolerance)
+        return
+    # exact: friction bounds follow the normal impulses, so re-solve with updated bounds
+    vel0, angvel0 = vel.copy(), angvel.copy()
+    for it in range(_FRICTION_PASSES):
+        if it > 0:
+            vel[:] = vel0
+            angvel[:] = angvel0
+        friction_bounds(rows, nrow, imp)
+        solve_direct(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp, o.tolerance)
 
-    m : ModelArrays; s : StateArrays (modified in place); o : StepOptions.
-    Returns (world, step, body): all -1 on success; otherwise where the state first
-    became non-finite or exceeded the divergence limit, after restoring ``s`` to its input.
+
+@njit(cache=True)
+def step_worlds(m, s, con, pairs, n, o):
+    """Advance every world of state ``s`` (contacts ``con``) by ``n`` steps.
+
+    m : ModelArrays; s : StateArrays and con : ContactArrays (modified in place);
+    pairs : (P, 2) broad-phase buffer; o : StepOptions.
+    Returns (status, world, step, body, needed): status STEP_OK; STEP_DIVERGED with where
+    the state first became non-finite or ran away; or STEP_MORE_PAIRS / STEP_MORE_CONTACTS
+    with the buffer size needed. On any failure ``s`` is restored to its input.
     """
     nw, nb = s.body_pos.shape[0], s.body_pos.shape[1]
-    nrow = s.row_impulse.shape[1]
+    ng = m.geom_type.shape[0]
+    njrow = s.row_impulse.shape[1]
+    cap = con.depth.shape[1]
     h = o.dt
     backup = (s.body_pos.copy(), s.body_quat.copy(), s.body_vel.copy(), s.body_angvel.copy(),
-              s.row_impulse.copy())
+              s.row_impulse.copy(), s.contact_count.copy())
+    con_backup = ContactArrays(con.geom.copy(), con.body.copy(), con.point.copy(),
+                               con.normal.copy(), con.depth.copy(), con.feature.copy(),
+                               con.friction.copy(), con.restitution.copy(), con.impulse.copy())
     force = np.empty((nb, 3))
     torque = np.empty((nb, 3))
     inv_inertia = np.zeros((nb, 3, 3))
-    rows = make_rows_nb(nrow)
+    ncap = njrow + (3 * cap if o.contact != CONTACT_PENALTY else 0)
+    rows = make_rows_nb(ncap)
+    imp = np.zeros(ncap)
+    gpos = np.zeros((ng, 3))
+    gquat = np.zeros((ng, 4))
+    aabb_lo = np.zeros((ng, 3))
+    aabb_hi = np.zeros((ng, 3))
+    prev = make_contacts_nb(cap)
+    status, fail_w, fail_k, fail_b, needed = STEP_OK, -1, -1, -1, 0
     for w in range(nw):
         pos, quat = s.body_pos[w], s.body_quat[w]
         vel, angvel = s.body_vel[w], s.body_angvel[w]
+        cw = ContactArrays(con.geom[w], con.body[w], con.point[w], con.normal[w], con.depth[w],
+                           con.feature[w], con.friction[w], con.restitution[w], con.impulse[w])
         for k in range(n):
+            ncon = 0
+            if ng > 1:
+                nprev = s.contact_count[w]
+                for c in range(nprev):
+                    prev.geom[c, 0], prev.geom[c, 1] = cw.geom[c, 0], cw.geom[c, 1]
+                    prev.feature[c] = cw.feature[c]
+                    for q in range(3):
+                        prev.impulse[c, q] = cw.impulse[c, q]
+                code, ncon = collide_world(m, pos, quat, gpos, gquat, aabb_lo, aabb_hi, pairs,
+                                           cw, nprev, prev, o.contact_margin)
+                if code != COLLIDE_OK:
+                    status = STEP_MORE_PAIRS if code == COLLIDE_PAIRS_FULL else STEP_MORE_CONTACTS
+                    fail_w, fail_k, needed = w, k, ncon
+                    break
+                s.contact_count[w] = ncon
             accumulate_forces(m, s.applied_force[w], s.applied_torque[w], force, torque)
+            if o.contact == CONTACT_PENALTY and ncon > 0:
+                penalty_forces(pos, vel, angvel, cw, ncon, o.penalty_k, o.penalty_c, o.v_slip, h,
+                               force, torque)
             integrate_velocities(m, quat, vel, angvel, force, torque, h, o.gyroscopic)
+            nrow = njrow + (3 * ncon if o.contact != CONTACT_PENALTY else 0)
             if nrow > 0:
-                build_joint_rows(m, pos, quat, vel, angvel, s.motor_target[w], h, o.erp, o.cfm,
-                                 rows)
+                if njrow > 0:
+                    build_joint_rows(m, pos, quat, vel, angvel, s.motor_target[w], h, o.erp,
+                                     o.cfm, rows)
+                    imp[:njrow] = s.row_impulse[w]
+                if nrow > njrow:
+                    build_contact_rows(pos, vel, angvel, cw, ncon, njrow, h, o.contact_erp,
+                                       o.contact_cfm, o.slop, o.bounce_threshold, rows, imp)
                 world_inverse_inertia(m, quat, inv_inertia)
-                if o.solver == SOLVER_DIRECT:
-                    solve_direct(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel,
-                                 s.row_impulse[w], o.tolerance)
-                else:
-                    solve_pgs(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel,
-                              s.row_impulse[w], o.iterations, o.tolerance, o.warm_start)
-                joint_reactions(m, pos, quat, rows, s.row_impulse[w], h, s.joint_force[w],
-                                s.joint_torque[w])
+                solve_rows(m, rows, nrow, njrow, ncon, inv_inertia, vel, angvel, imp, o)
+                if njrow > 0:
+                    s.row_impulse[w] = imp[:njrow]
+                    joint_reactions(m, pos, quat, rows, s.row_impulse[w], h, s.joint_force[w],
+                                    s.joint_torque[w])
+                if nrow > njrow:
+                    store_contact_impulses(cw, ncon, njrow, imp)
             integrate_positions(m, pos, quat, vel, angvel, h, o.quat_integration)
-            if nrow > 0 and o.projection > 0:
+            if njrow > 0 and o.projection > 0:
                 project_joints(m, pos, quat, vel, angvel, s.motor_target[w], rows, inv_inertia,
                                o.projection, o.projection_tolerance)
             bad = first_bad_body(pos, quat, vel, angvel, o.divergence_limit)
             if bad >= 0:
-                s.body_pos[:] = backup[0]
-                s.body_quat[:] = backup[1]
-                s.body_vel[:] = backup[2]
-                s.body_angvel[:] = backup[3]
-                s.row_impulse[:] = backup[4]
-                for w2 in range(nw):
-                    joint_coordinates(m, s.body_pos[w2], s.body_quat[w2], s.body_vel[w2],
-                                      s.body_angvel[w2], s.joint_q[w2], s.joint_qd[w2],
-                                      s.joint_qrel[w2])
-                return w, k, bad
+                status, fail_w, fail_k, fail_b = STEP_DIVERGED, w, k, bad
+                break
+        if status != STEP_OK:
+            break
         joint_coordinates(m, pos, quat, vel, angvel, s.joint_q[w], s.joint_qd[w], s.joint_qrel[w])
-    return -1, -1, -1
+    if status != STEP_OK:
+        s.body_pos[:] = backup[0]
+        s.body_quat[:] = backup[1]
+        s.body_vel[:] = backup[2]
+        s.body_angvel[:] = backup[3]
+        s.row_impulse[:] = backup[4]
+        s.contact_count[:] = backup[5]
+        con.geom[:] = con_backup.geom
+        con.body[:] = con_backup.body
+        con.point[:] = con_backup.point
+        con.normal[:] = con_backup.normal
+        con.depth[:] = con_backup.depth
+        con.feature[:] = con_backup.feature
+        con.friction[:] = con_backup.friction
+        con.restitution[:] = con_backup.restitution
+        con.impulse[:] = con_backup.impulse
+        for w2 in range(nw):
+            joint_coordinates(m, s.body_pos[w2], s.body_quat[w2], s.body_vel[w2],
+                              s.body_angvel[w2], s.joint_q[w2], s.joint_qd[w2], s.joint_qrel[w2])
+    return status, fail_w, fail_k, fail_b, needed

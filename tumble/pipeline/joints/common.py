@@ -59,6 +59,8 @@ def set_row(rows, r, a, b, lin_a, ang_a, lin_b, ang_b, rhs, cfm, lo, hi):
     rows.cfm[r] = cfm
     rows.lo[r] = lo
     rows.hi[r] = hi
+    rows.parent[r] = -1
+    rows.mu[r] = 0.0
 
 
 @njit(cache=True, inline="always")

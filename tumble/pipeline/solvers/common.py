@@ -7,14 +7,16 @@ from numba import njit
 from ...math.spatial import inertia_world_inv
 from ...model.model import DYNAMIC
 
-Rows = namedtuple("Rows", ["body_a", "body_b", "J", "rhs", "cfm", "lo", "hi"])
+# parent >= 0 marks a friction row whose bounds are -+ mu * impulse[parent].
+Rows = namedtuple("Rows", ["body_a", "body_b", "J", "rhs", "cfm", "lo", "hi", "parent", "mu"])
 
 
 @njit(cache=True)
 def make_rows_nb(nrow):
     """Empty row arrays for ``nrow`` rows (see joints/common.py for their meaning)."""
     return Rows(np.full(nrow, -1, np.int32), np.full(nrow, -1, np.int32), np.zeros((nrow, 12)),
-                np.zeros(nrow), np.zeros(nrow), np.zeros(nrow), np.zeros(nrow))
+                np.zeros(nrow), np.zeros(nrow), np.zeros(nrow), np.zeros(nrow),
+                np.full(nrow, -1, np.int32), np.zeros(nrow))
 
 
 @njit(cache=True)
@@ -32,7 +34,17 @@ def world_inverse_inertia(m, quat, out):
 
 @njit(cache=True, inline="always")
 def row_active(rows, r):
-    return not (rows.lo[r] == 0.0 and rows.hi[r] == 0.0)
+    return rows.parent[r] >= 0 or not (rows.lo[r] == 0.0 and rows.hi[r] == 0.0)
+
+
+@njit(cache=True)
+def friction_bounds(rows, nrow, impulse):
+    """Set each friction row's bounds to -+ mu times its normal row's impulse."""
+    for r in range(nrow):
+        if rows.parent[r] >= 0:
+            b = rows.mu[r] * max(impulse[rows.parent[r]], 0.0)
+            rows.lo[r] = -b
+            rows.hi[r] = b
 
 
 @njit(cache=True)

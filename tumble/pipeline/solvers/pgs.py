@@ -29,12 +29,23 @@ def solve_pgs(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, iteration
         for k in range(12):
             a += rows.J[r, k] * dv[r, k]
         diag[r] = a
+        if rows.parent[r] >= 0:
+            continue                                   # friction: warm-started below
         if warm_start:
             p = min(max(impulse[r], rows.lo[r]), rows.hi[r])
             impulse[r] = p
             apply_impulse(rows, r, dv[r], p, vel, angvel)
         else:
             impulse[r] = 0.0
+    # friction rows after their normals, whose impulses set their bounds
+    for r in range(nrow):
+        if rows.parent[r] < 0 or diag[r] <= 0.0:
+            continue
+        b = rows.mu[r] * max(impulse[rows.parent[r]], 0.0)
+        rows.lo[r], rows.hi[r] = -b, b
+        p = min(max(impulse[r], -b), b) if warm_start else 0.0
+        impulse[r] = p
+        apply_impulse(rows, r, dv[r], p, vel, angvel)
     sweeps = 0
     for it in range(iterations):
         sweeps = it + 1
@@ -42,6 +53,9 @@ def solve_pgs(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, iteration
         for r in range(nrow):
             if diag[r] <= 0.0:
                 continue
+            if rows.parent[r] >= 0:
+                b = rows.mu[r] * max(impulse[rows.parent[r]], 0.0)
+                rows.lo[r], rows.hi[r] = -b, b
             residual = rows.rhs[r] - row_velocity(rows, r, vel, angvel) - rows.cfm[r] * impulse[r]
             p = min(max(impulse[r] + residual / diag[r], rows.lo[r]), rows.hi[r])
             delta = p - impulse[r]

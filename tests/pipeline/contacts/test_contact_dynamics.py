@@ -1,0 +1,140 @@
+"""Contact dynamics of each model against analytic answers (stated tolerances)."""
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+import tumble
+from bench import scenes
+
+G = 9.81
+MODELS = ["lcp", "pgs", "penalty"]
+
+
+def box_on_plane(contact, normal=(0, 0, 1), mu=0.9, **world_kwargs):
+    """A unit box resting on a plane through the origin with the given normal."""
+    n = np.asarray(normal, float) / np.linalg.norm(normal)
+    rot = Rotation.align_vectors([n], [[0, 0, 1]])[0]
+    b = tumble.ModelBuilder()
+    b.add_geom(None, "plane", normal=n, friction=mu)
+    b.add_body("box", pos=0.5 * n, quat=rot.as_quat(), mass=1.0, inertia=(1 / 6, 1 / 6, 1 / 6))
+    b.add_geom("box", "box", size=(0.5, 0.5, 0.5), friction=mu)
+    return tumble.World(b.build(), dt=1 / 240, contact=contact, **world_kwargs)
+
+
+@pytest.mark.parametrize("contact", MODELS)
+def test_box_rests_on_a_plane(contact):
+    w = box_on_plane(contact)
+    heights = []
+    for _ in range(480):
+        w.step()
+        heights.append(w.body_pos[0, 2])
+    assert max(abs(h - 0.5) for h in heights) < 1e-3          # within 1 mm of rest height
+    assert np.abs(w.body_vel).max() < 1e-4 and np.abs(w.body_angvel).max() < 1e-4
+    assert len(w.contacts) == 4
+    force, torque = w.contact_force("box")
+    np.testing.assert_allclose(force, [0, 0, G], atol=1e-3 * G)   # carries its weight
+    np.testing.assert_allclose(w.contacts.normal, np.tile([0, 0, 1.0], (4, 1)))
+
+
+@pytest.mark.parametrize("contact", MODELS)
+def test_box_slides_down_an_incline_at_the_coulomb_rate(contact):
+    mu = 0.5
+    theta = np.arctan(mu * 1.2)                     # tan(theta) just above mu
+    n = (np.sin(theta), 0.0, np.cos(theta))
+    w = box_on_plane(contact, normal=n, mu=mu)
+    down = np.array([np.cos(theta), 0.0, -np.sin(theta)])
+    w.step(120)                                       # settle into sliding
+    v0, t0 = w.body_vel[0] @ down, w.time
+    w.step(240)
+    accel = (w.body_vel[0] @ down - v0) / (w.time - t0)
+    assert accel == pytest.approx(G * (np.sin(theta) - mu * np.cos(theta)), rel=0.02)
+
+
+@pytest.mark.parametrize("contact", ["lcp", "pgs"])
+def test_box_sticks_just_below_the_friction_threshold(contact):
+    mu = 0.5
+    theta = np.arctan(mu * 0.9)
+    w = box_on_plane(contact, normal=(np.sin(theta), 0.0, np.cos(theta)), mu=mu)
+    start = w.body_pos[0].copy()
+    w.step(480)                                       # 2 s
+    assert np.linalg.norm(w.body_pos[0] - start) < 1e-3
+
+
+@pytest.mark.parametrize("contact", ["lcp", "pgs"])
+@pytest.mark.parametrize("e", [0.0, 0.5, 0.8])
+def test_ball_bounces_to_its_restitution_height(contact, e):
+    h0 = 1.0
+    b = tumble.ModelBuilder()
+    b.add_geom(None, "plane", restitution=e)
+    b.add_body("ball", pos=(0, 0, h0 + 0.1), density=1000.0)
+    b.add_geom("ball", "sphere", radius=0.1, restitution=e)
+    w = tumble.World(b.build(), dt=1 / 1000, contact=contact)
+    bounced, apex = False, 0.0
+    for _ in range(2000):
+        w.step()
+        if w.body_vel[0, 2] > 0.0:
+            bounced = True
+        if bounced:
+            apex = max(apex, w.body_pos[0, 2] - 0.1)
+    assert apex == pytest.approx(e * e * h0, abs=0.02 * h0)
+
+
+def stack_world(contact, **kwargs):
+    b = tumble.ModelBuilder(gravity=(0, 0, scenes.GRAVITY))
+    b.add_geom(None, "plane", friction=scenes.FRICTION)
+    half = scenes.STACK["half"]
+    for i, p in enumerate(scenes.stack_positions()):
+        b.add_body(f"box{i}", pos=p, mass=scenes.STACK["mass"],
+                   inertia=scenes.box_inertia(scenes.STACK["mass"], half, half, half))
+        b.add_geom(f"box{i}", "box", size=(half, half, half), friction=scenes.FRICTION)
+    return tumble.World(b.build(), dt=scenes.STACK["dt"], contact=contact, **kwargs)
+
+
+@pytest.mark.parametrize("contact", ["pgs"])
+def test_ten_box_stack_stands(contact):
+    w = stack_world(contact)
+    top0 = w.body_pos[-1].copy()
+    w.step(scenes.STACK["steps"])
+    assert np.linalg.norm(w.body_pos[-1] - top0) < 1e-3       # PyBullet drifts 5.8 mm
+    assert np.abs(w.body_vel).max() < 1e-3
+
+
+def test_contact_filtering():
+    b = tumble.ModelBuilder(gravity=(0, 0, 0))
+    b.add_body("a", pos=(0, 0, 0), mass=1.0, inertia=(1, 1, 1))
+    b.add_geom("a", "sphere", radius=0.5)
+    b.add_body("b", pos=(0.8, 0, 0), mass=1.0, inertia=(1, 1, 1))
+    b.add_geom("b", "sphere", radius=0.5)
+    b.add_body("c", pos=(0, 0.8, 0), mass=1.0, inertia=(1, 1, 1))
+    b.add_geom("c", "sphere", radius=0.5, contype=2, conaffinity=2)
+    b.add_body("d", pos=(0, -0.8, 0), mass=1.0, inertia=(1, 1, 1))
+    b.add_geom("d", "sphere", radius=0.5)
+    b.add_joint("ab", "ball", "a", "b", anchor=(0.4, 0, 0))   # joined: no contact
+    b.exclude_collision("a", "d")
+    w = tumble.World(b.build())
+    w.step()
+    pairs = {tuple(p) for p in w.contacts.bodies}
+    assert pairs == set()                    # a-b joined, a-c masks, a-d excluded, rest apart
+    b2 = tumble.ModelBuilder(gravity=(0, 0, 0))
+    b2.add_body("a", mass=1.0, inertia=(1, 1, 1))
+    b2.add_geom("a", "sphere", radius=0.5)
+    b2.add_body("b", pos=(0.8, 0, 0), mass=1.0, inertia=(1, 1, 1))
+    b2.add_geom("b", "sphere", radius=0.5)
+    b2.add_joint("ab", "ball", "a", "b", anchor=(0.4, 0, 0), collide=True)
+    w2 = tumble.World(b2.build())
+    w2.step()
+    assert {tuple(p) for p in w2.contacts.bodies} == {(0, 1)}
+    np.testing.assert_allclose(w2.contacts.normal[0], [1, 0, 0], atol=1e-9)
+
+
+def test_many_contacts_grow_the_buffers():
+    b = tumble.ModelBuilder()
+    b.add_geom(None, "plane")
+    for i in range(30):
+        b.add_body(f"b{i}", pos=(1.2 * (i % 6), 1.2 * (i // 6), 0.49), mass=1.0,
+                   inertia=(1 / 6,) * 3)
+        b.add_geom(f"b{i}", "box", size=(0.5, 0.5, 0.5))
+    w = tumble.World(b.build(), contact="pgs")
+    w._contacts = tumble.world.make_contacts(1, 8)          # force a small buffer
+    w.step(3)
+    assert len(w.contacts) == 120

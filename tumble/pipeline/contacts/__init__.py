@@ -1,0 +1,1 @@
+"""Contact models: penalty forces (``penalty.py``) and constraint rows (``rows.py``)."""
