@@ -10,6 +10,7 @@ from .model.validate import positive
 from .pipeline import step as pipeline_step
 from .pipeline.contacts.arrays import make_contacts
 from .pipeline.contacts.penalty import default_penalty
+from .pipeline.queries import distance_between, raycast_scene
 from .pipeline.integrate import GYRO_EXPLICIT, GYRO_IMPLICIT, GYRO_NONE, QUAT_EXP, QUAT_LINEAR
 
 GYROSCOPIC = {"implicit": GYRO_IMPLICIT, "explicit": GYRO_EXPLICIT, "none": GYRO_NONE}
@@ -433,6 +434,42 @@ class World:
         force = imp[:, :1] * normal + imp[:, 1:2] * t1 + imp[:, 2:3] * t2
         return Contacts(c.geom[w, :n].copy(), c.body[w, :n].copy(), point, normal,
                         c.depth[w, :n].copy(), force, imp[:, 0].copy())
+
+    def raycast(self, origin, direction, max_dist=1e6, *, exclude_body=None, world=None):
+        """First geom hit by the ray from ``origin`` along ``direction`` (world frame).
+
+        Returns ``(distance m, geom name, body name or None, point, normal)`` or ``None``
+        when nothing is hit within ``max_dist``. ``exclude_body`` skips one body's geoms
+        (a character looking for the ground under its own feet).
+        """
+        o = self._vec3(origin, "raycast: origin", 0)
+        d = self._vec3(direction, "raycast: direction", 0)
+        length = np.linalg.norm(d)
+        if length == 0.0:
+            raise ModelError("raycast: direction is the zero vector")
+        d = d / length
+        skip = -2 if exclude_body is None else self.model.body_index(exclude_body)
+        w = 0 if world is None else self._world_slice(world)
+        ng = self.model.ngeom
+        t, g, n = raycast_scene(self.model.arrays, self._state.body_pos[w], self._state.body_quat[w],
+                                np.zeros((ng, 3)), np.zeros((ng, 4)), o, d,
+                                float(positive(max_dist, "raycast", "max_dist")), skip)
+        if g < 0:
+            return None
+        b = self.model.geom_body[g]
+        return (float(t), self.model.geom_names[g], None if b < 0 else self.model.body_names[b],
+                o + t * d, np.asarray(n))
+
+    def geom_distance(self, geom_a, geom_b, *, world=None):
+        """Signed distance (m; negative: penetration depth) between two geoms, and their
+        closest (or deepest) points, world frame: ``(distance, point_a, point_b)``."""
+        ga, gb = self.model.geom_index(geom_a), self.model.geom_index(geom_b)
+        w = 0 if world is None else self._world_slice(world)
+        ng = self.model.ngeom
+        dist, pa, pb = distance_between(self.model.arrays, self._state.body_pos[w],
+                                        self._state.body_quat[w], np.zeros((ng, 3)),
+                                        np.zeros((ng, 4)), ga, gb)
+        return float(dist), np.asarray(pa), np.asarray(pb)
 
     def contact_force(self, body, *, world=None):
         """Total contact force (N) and torque about the COM (N m) on ``body`` over the last step."""

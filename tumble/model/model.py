@@ -105,6 +105,7 @@ class Model:
         self.body_ipos = _frozen(bodies["ipos"])
         self.body_iquat = _frozen(bodies["iquat"])
         self.geom_names = list(geoms["names"])
+        self._geom_index = {n: i for i, n in enumerate(self.geom_names)}
         self.geom_body = _frozen(geoms["body"])
         self.geom_type = _frozen(geoms["type"])
         self.geom_size = _frozen(geoms["size"])
@@ -173,6 +174,10 @@ class Model:
     def body_index(self, body):
         """Index of a body given by index or name; ModelError names an unknown one."""
         return index_of(body, self._body_index, "body")
+
+    def geom_index(self, geom):
+        """Index of a geom given by index or name; ModelError names an unknown one."""
+        return index_of(geom, self._geom_index, "geom")
 
     @property
     def njoint(self):

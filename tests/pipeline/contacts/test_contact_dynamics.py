@@ -138,3 +138,26 @@ def test_many_contacts_grow_the_buffers():
     w._contacts = tumble.world.make_contacts(1, 8)          # force a small buffer
     w.step(3)
     assert len(w.contacts) == 120
+
+
+def test_raycast_and_geom_distance_queries():
+    b = tumble.ModelBuilder()
+    b.add_geom(None, "plane", name="ground")
+    b.add_body("ball", pos=(0, 0, 2.0), mass=1.0, inertia=(0.1,) * 3)
+    b.add_geom("ball", "sphere", radius=0.5, name="ball")
+    b.add_body("crate", pos=(3, 0, 0.5), mass=1.0, inertia=(0.1,) * 3)
+    b.add_geom("crate", "box", size=(0.5, 0.5, 0.5), name="crate")
+    w = tumble.World(b.build())
+    t, geom, body, point, normal = w.raycast((0, 0, 10), (0, 0, -1))
+    assert (geom, body) == ("ball", "ball") and t == pytest.approx(7.5)
+    np.testing.assert_allclose(normal, [0, 0, 1], atol=1e-12)
+    t, geom, body, point, normal = w.raycast((0, 0, 10), (0, 0, -1), exclude_body="ball")
+    assert geom == "ground" and body is None and t == pytest.approx(10.0)
+    assert w.raycast((0, 0, 10), (0, 0, 1)) is None
+    dist, pa, pb = w.geom_distance("ball", "crate")
+    assert dist == pytest.approx(np.hypot(2.5, 1.0) - 0.5, abs=1e-6)   # to the box's top edge
+    np.testing.assert_allclose(pb, [2.5, 0, 1.0], atol=1e-6)
+    dist, pa, pb = w.geom_distance("ball", "ground")
+    assert dist == pytest.approx(1.5, abs=1e-9)
+    with pytest.raises(tumble.ModelError, match="unknown geom"):
+        w.geom_distance("ball", "moon")
