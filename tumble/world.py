@@ -176,7 +176,8 @@ class World:
             row_impulse=np.zeros((nw, model.nrow)), motor_target=np.zeros((nw, nj, 3)),
             joint_q=np.zeros((nw, nj, 3)), joint_qd=np.zeros((nw, nj, 3)),
             joint_qrel=np.zeros((nw, nj, 4)), joint_force=np.zeros((nw, nj, 3)),
-            joint_torque=np.zeros((nw, nj, 3)), contact_count=np.zeros(nw, np.int64))
+            joint_torque=np.zeros((nw, nj, 3)), contact_count=np.zeros(nw, np.int64),
+            lcp_fallbacks=np.zeros(nw, np.int64))
         self._contacts = make_contacts(nw, 8 * model.ngeom + 64)
         self._pairs = np.zeros((8 * model.ngeom + 64, 2), np.int32)
         self.reset()
@@ -434,6 +435,11 @@ class World:
         force = imp[:, :1] * normal + imp[:, 1:2] * t1 + imp[:, 2:3] * t2
         return Contacts(c.geom[w, :n].copy(), c.body[w, :n].copy(), point, normal,
                         c.depth[w, :n].copy(), force, imp[:, 0].copy())
+
+    @property
+    def lcp_fallbacks(self):
+        """Steps (since the world was made) in which Lemke failed and PGS solved instead."""
+        return int(self._state.lcp_fallbacks.sum())
 
     def raycast(self, origin, direction, max_dist=1e6, *, exclude_body=None, world=None):
         """First geom hit by the ray from ``origin`` along ``direction`` (world frame).

@@ -313,7 +313,7 @@ class ModelBuilder:
                           TumbleWarning, stacklevel=2)
         self._joint_names.add(name)
         self._joints.append(entry)
-        if not collide:
+        if not collide and type != "free":      # a free joint joins nothing to filter
             self._excluded.add((min(p, c), max(p, c)))
         return len(self._joints) - 1
 

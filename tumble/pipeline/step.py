@@ -29,16 +29,15 @@ from .contacts.rows import build_contact_rows, store_contact_impulses
 from .forces import accumulate_forces
 from .integrate import first_bad_body, integrate_positions, integrate_velocities
 from .joints.rows import build_joint_rows, joint_coordinates, joint_reactions
-from .solvers.common import friction_bounds, make_rows_nb, world_inverse_inertia
+from .solvers.common import make_rows_nb, world_inverse_inertia
 from .solvers.direct import solve_direct
+from .solvers.mlcp import solve_mlcp
 from .solvers.pgs import solve_pgs
 from .stabilize import project_joints
 
 SOLVER_DIRECT, SOLVER_PGS = 0, 1
 CONTACT_LCP, CONTACT_PGS, CONTACT_PENALTY = 0, 1, 2
 STEP_OK, STEP_DIVERGED, STEP_MORE_PAIRS, STEP_MORE_CONTACTS = 0, 1, 2, 3
-# Exact contact solves re-solve this many times as friction bounds follow normal impulses.
-_FRICTION_PASSES = 3
 
 # Scalars that configure a step.
 StepOptions = namedtuple("StepOptions", [
@@ -63,6 +62,7 @@ StateArrays = namedtuple("StateArrays", [
     "joint_force",     # (nworld, njoint, 3) force of the joint on its child, N, world
     "joint_torque",    # (nworld, njoint, 3) torque on the child about the anchor, N m, world
     "contact_count",   # (nworld,) int64 contacts found in the last step
+    "lcp_fallbacks",   # (nworld,) int64 steps where Lemke failed and PGS stood in
 ])
 
 # What check_state found wrong, by field.
@@ -111,22 +111,23 @@ def check_state(s):
 
 @njit(cache=True)
 def solve_rows(m, rows, nrow, njrow, ncon, inv_inertia, vel, angvel, imp, o):
-    """Solve joint and contact rows together with the solver the options pick."""
+    """Solve joint and contact rows together with the solver the options pick.
+
+    Returns 1 when the exact (Lemke) solve failed and PGS stood in, else 0."""
     if o.contact == CONTACT_PGS or (o.solver == SOLVER_PGS and ncon == 0):
         solve_pgs(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp, o.iterations,
                   o.tolerance, o.warm_start)
-        return
+        return 0
     if ncon == 0 or o.contact == CONTACT_PENALTY:
         solve_direct(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp, o.tolerance)
-        return
-    # exact: friction bounds follow the normal impulses, so re-solve with updated bounds
-    vel0, angvel0 = vel.copy(), angvel.copy()
-    for it in range(_FRICTION_PASSES):
-        if it > 0:
-            vel[:] = vel0
-            angvel[:] = angvel0
-        friction_bounds(rows, nrow, imp)
-        solve_direct(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp, o.tolerance)
+        return 0
+    # exact: the mixed LCP by Lemke; if Lemke reports failure, PGS from the warm start
+    status = solve_mlcp(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp, 0)
+    if status != 0:
+        solve_pgs(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp, o.iterations,
+                  o.tolerance, o.warm_start)
+        return 1
+    return 0
 
 
 @njit(cache=True)
@@ -197,7 +198,8 @@ def step_worlds(m, s, con, pairs, n, o):
                     build_contact_rows(pos, vel, angvel, cw, ncon, njrow, h, o.contact_erp,
                                        o.contact_cfm, o.slop, o.bounce_threshold, rows, imp)
                 world_inverse_inertia(m, quat, inv_inertia)
-                solve_rows(m, rows, nrow, njrow, ncon, inv_inertia, vel, angvel, imp, o)
+                s.lcp_fallbacks[w] += solve_rows(m, rows, nrow, njrow, ncon, inv_inertia, vel,
+                                                 angvel, imp, o)
                 if njrow > 0:
                     s.row_impulse[w] = imp[:njrow]
                     joint_reactions(m, pos, quat, rows, s.row_impulse[w], h, s.joint_force[w],
