@@ -35,7 +35,8 @@ from .box_box import box_box_deepest, box_sat, collide_box_box
 from .broadphase import broadphase_pairs, find_pairs, geom_aabbs, sweep_axis
 from .convex import (collide_box_cylinder, collide_capsule_cylinder, collide_cylinder_cylinder,
                      convex_contact)
-from .dispatch import collide_pair, geom_distance
+from .dispatch import (collide_geoms, collide_pair, geom_aabb_any, geom_distance,
+                       geom_distance_any, raycast_any)
 from .gjk import gjk_distance, mpr_penetration
 from .primitives import (collide_capsule_box, collide_capsule_capsule, collide_plane_box,
                          collide_plane_capsule, collide_plane_cylinder, collide_plane_plane,

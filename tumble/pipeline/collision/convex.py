@@ -27,6 +27,9 @@ from .gjk import gjk_distance, mpr_penetration
 from .manifold import face_manifold
 from .shapes import BOX, CAPSULE, CYLINDER, core_radius, shape_scale, support_core
 
+# Type codes and flags are passed as int(...)/bool(...): Numba specialises a callee on
+# every literal argument value, which multiplied the compile time of these kernels.
+
 # |cos| between the contact normal and a face normal above which the face is used.
 COS_FACE = 0.9995
 # Rounds of shift-out GJK refinement of the MPR penetration direction.
@@ -34,7 +37,7 @@ REFINE_ITER = 32
 
 
 @njit(cache=True)
-def convex_contact(ta, pa, qa, sa, tb, pb, qb, sb):
+def convex_contact(ta, pa, qa, sa, tb, pb, qb, sb, va=None, vb=None):
     """Deepest/nearest contact of two convex shapes.
 
     Returns ``(depth, normal A->B, point_a, point_b)``: ``depth`` > 0 is penetration,
@@ -51,19 +54,19 @@ def convex_contact(ta, pa, qa, sa, tb, pb, qb, sb):
     Accuracy: depth to about 1e-7 of the shape size; normal and points to about 1e-3
     for curved contacts (the depth is flat around the best direction). For very deep
     overlaps (cores crossing near their centres) the local minimum found can depend on
-    rounding.
+    rounding. ``va``, ``vb``: hull vertices of ``CONVEX`` shapes.
     """
     ra = core_radius(ta, sa)
     rb = core_radius(tb, sb)
-    sc = shape_scale(ta, sa) + shape_scale(tb, sb)
-    dist, ca, cb, overlap = gjk_distance(ta, pa, qa, sa, tb, pb, qb, sb)
+    sc = shape_scale(ta, sa, va) + shape_scale(tb, sb, vb)
+    dist, ca, cb, overlap = gjk_distance(ta, pa, qa, sa, tb, pb, qb, sb, va, vb)
     if not overlap and dist > 1e-9 * sc:
         n = normalize_or(sub(cb, ca), (0.0, 0.0, 1.0))
         return ra + rb - dist, n, madd(ca, n, ra), madd(cb, n, -rb)
     # inflate both shapes a little so that touching shapes overlap for MPR
     delta = 1e-7 * sc
     hit, n, depth, xa, xb = mpr_penetration(ta, pa, qa, sa, ra + delta, tb, pb, qb, sb,
-                                            rb + delta, 1e-12 * sc)
+                                            rb + delta, 1e-12 * sc, va, vb)
     if hit:
         depth = depth - 2.0 * delta
         xa = madd(xa, n, -delta)
@@ -72,19 +75,21 @@ def convex_contact(ta, pa, qa, sa, tb, pb, qb, sb):
         # cannot happen for shapes of non-zero thickness: start from the centres
         n = normalize_or(sub(pb, pa), (0.0, 0.0, 1.0))
         depth = ra + rb
-    return _refine_penetration(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, sc, n, depth, xa, xb)
+    return _refine_penetration(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, sc, n, depth, xa, xb,
+                               va, vb)
 
 
 @njit(cache=True)
-def _support_gap(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, n):
+def _support_gap(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, n, va, vb):
     """Penetration of A and B along unit ``n``: ``max_A n.x - min_B n.x``."""
-    a = madd(support_core(ta, pa, qa, sa, n), n, ra)
-    b = madd(support_core(tb, pb, qb, sb, (-n[0], -n[1], -n[2])), n, -rb)
+    a = madd(support_core(ta, pa, qa, sa, n, va), n, ra)
+    b = madd(support_core(tb, pb, qb, sb, (-n[0], -n[1], -n[2]), vb), n, -rb)
     return vdot(n, sub(a, b))
 
 
 @njit(cache=True)
-def _refine_penetration(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, sc, n, depth, xa, xb):
+def _refine_penetration(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, sc, n, depth, xa, xb, va,
+                        vb):
     """Shift-out refinement of a penetration direction (see :func:`convex_contact`).
 
     The map ``n -> n'`` (move B out along ``n`` just past its support-plane
@@ -103,8 +108,8 @@ def _refine_penetration(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, sc, n, depth, xa
     out_xb = xb
     for _ in range(REFINE_ITER):
         # shift B out along n past its support-plane penetration: apart by >= eps
-        s = max(_support_gap(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, n), 0.0) + eps
-        dist, ca, cb, overlap = gjk_distance(ta, pa, qa, sa, tb, madd(pb, n, s), qb, sb)
+        s = max(_support_gap(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, n, va, vb), 0.0) + eps
+        dist, ca, cb, overlap = gjk_distance(ta, pa, qa, sa, tb, madd(pb, n, s), qb, sb, va, vb)
         if overlap:
             break
         n2 = normalize_or(sub(cb, ca), n)
@@ -178,7 +183,7 @@ def collide_capsule_cylinder(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margi
     """Capsule A, cylinder B (GJK/MPR; end caps against B's cap when resting on it)."""
     pa, qa, sa = v3(pos_a), q4(quat_a), v3(size_a)
     pb, qb, sb = v3(pos_b), q4(quat_b), v3(size_b)
-    depth0, n, xa, xb = convex_contact(CAPSULE, pa, qa, sa, CYLINDER, pb, qb, sb)
+    depth0, n, xa, xb = convex_contact(int(CAPSULE), pa, qa, sa, int(CYLINDER), pb, qb, sb)
     if depth0 <= -margin:
         return 0
     cnt = 0
@@ -187,8 +192,9 @@ def collide_capsule_cylinder(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margi
     if al >= COS_FACE:
         t1 = any_perp(c)
         t2 = vcross(c, t1)
-        cnt, dmax = face_manifold(CAPSULE, pa, qa, sa, cc, c, t1, t2, sb[0], sb[0], True,
-                                  margin, True, _face_feature(1, code), out_point, out_normal,
+        cnt, dmax = face_manifold(int(CAPSULE), pa, qa, sa, cc, c, t1, t2, sb[0], sb[0],
+                                  bool(True), margin, bool(True), _face_feature(1, code),
+                                  out_point, out_normal,
                                   out_depth, out_feature, start)
     tol = 1e-6 * (shape_scale(CAPSULE, sa) + shape_scale(CYLINDER, sb))
     return _add_single(cnt, dmax, depth0, n, xa, xb, tol, out_point, out_normal, out_depth,
@@ -201,7 +207,7 @@ def collide_box_cylinder(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, o
     """Box A, cylinder B (GJK/MPR; a box face or a cap as reference face when resting)."""
     pa, qa, sa = v3(pos_a), q4(quat_a), v3(size_a)
     pb, qb, sb = v3(pos_b), q4(quat_b), v3(size_b)
-    depth0, n, xa, xb = convex_contact(BOX, pa, qa, sa, CYLINDER, pb, qb, sb)
+    depth0, n, xa, xb = convex_contact(int(BOX), pa, qa, sa, int(CYLINDER), pb, qb, sb)
     if depth0 <= -margin:
         return 0
     A = frame_axes(qa)
@@ -228,14 +234,16 @@ def collide_box_cylinder(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, o
             break
         if (attempt == 0) == use_box:
             if box_ok:
-                cnt, dmax = face_manifold(CYLINDER, pb, qb, sb, madd(pa, f, sa[k]), f,
-                                          A[(k + 1) % 3], A[(k + 2) % 3], e1, e2, False, margin,
-                                          False, _face_feature(0, 2 * k + (1 if s > 0.0 else 0)),
+                cnt, dmax = face_manifold(int(CYLINDER), pb, qb, sb, madd(pa, f, sa[k]), f,
+                                          A[(k + 1) % 3], A[(k + 2) % 3], e1, e2, bool(False),
+                                          margin, bool(False),
+                                          _face_feature(0, 2 * k + (1 if s > 0.0 else 0)),
                                           out_point, out_normal, out_depth, out_feature, start)
         elif cap_ok:
             t1 = any_perp(c)
             t2 = vcross(c, t1)
-            cnt, dmax = face_manifold(BOX, pa, qa, sa, cc, c, t1, t2, r, r, True, margin, True,
+            cnt, dmax = face_manifold(int(BOX), pa, qa, sa, cc, c, t1, t2, r, r, bool(True),
+                                      margin, bool(True),
                                       _face_feature(1, code), out_point, out_normal, out_depth,
                                       out_feature, start)
     tol = 1e-6 * (shape_scale(BOX, sa) + shape_scale(CYLINDER, sb))
@@ -249,7 +257,7 @@ def collide_cylinder_cylinder(pos_a, quat_a, size_a, pos_b, quat_b, size_b, marg
     """Cylinder A, cylinder B (GJK/MPR; the larger facing cap as reference when resting)."""
     pa, qa, sa = v3(pos_a), q4(quat_a), v3(size_a)
     pb, qb, sb = v3(pos_b), q4(quat_b), v3(size_b)
-    depth0, n, xa, xb = convex_contact(CYLINDER, pa, qa, sa, CYLINDER, pb, qb, sb)
+    depth0, n, xa, xb = convex_contact(int(CYLINDER), pa, qa, sa, int(CYLINDER), pb, qb, sb)
     if depth0 <= -margin:
         return 0
     ala, cca, ca, codea = _cap(pa, qa, sa[1], n, 1.0)
@@ -266,14 +274,15 @@ def collide_cylinder_cylinder(pos_a, quat_a, size_a, pos_b, quat_b, size_b, marg
             if oka:
                 t1 = any_perp(ca)
                 t2 = vcross(ca, t1)
-                cnt, dmax = face_manifold(CYLINDER, pb, qb, sb, cca, ca, t1, t2, sa[0], sa[0],
-                                          True, margin, False, _face_feature(0, codea),
+                cnt, dmax = face_manifold(int(CYLINDER), pb, qb, sb, cca, ca, t1, t2, sa[0], sa[0],
+                                          bool(True), margin, bool(False), _face_feature(0, codea),
                                           out_point, out_normal, out_depth, out_feature, start)
         elif okb:
             t1 = any_perp(cb)
             t2 = vcross(cb, t1)
-            cnt, dmax = face_manifold(CYLINDER, pa, qa, sa, ccb, cb, t1, t2, sb[0], sb[0], True,
-                                      margin, True, _face_feature(1, codeb), out_point,
+            cnt, dmax = face_manifold(int(CYLINDER), pa, qa, sa, ccb, cb, t1, t2, sb[0], sb[0],
+                                      bool(True),
+                                      margin, bool(True), _face_feature(1, codeb), out_point,
                                       out_normal, out_depth, out_feature, start)
     tol = 1e-6 * (shape_scale(CYLINDER, sa) + shape_scale(CYLINDER, sb))
     return _add_single(cnt, dmax, depth0, n, xa, xb, tol, out_point, out_normal, out_depth,

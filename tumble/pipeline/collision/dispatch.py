@@ -1,11 +1,17 @@
 """Type dispatch for contacts and distances.
 
-``collide_pair`` and ``geom_distance`` take two geoms of any types. Routines exist for
-``type_a <= type_b``; for the reverse order the geoms are swapped and the normals
-flipped (points and depths are symmetric by the midpoint convention).
+``collide_pair`` and ``geom_distance`` take two primitive geoms (plane .. cylinder).
+Routines exist for ``type_a <= type_b``; for the reverse order the geoms are swapped
+and the normals flipped (points and depths are symmetric by the midpoint convention).
+
+``collide_geoms``, ``geom_aabb_any``, ``raycast_any`` and ``geom_distance_any`` take a
+model (any namedtuple with ``geom_type``, ``geom_size``, ``geom_dataid``, the
+``mesh_*`` and ``hfield_*`` arrays) and geom indices, and cover all 7 types including
+``CONVEX`` (``convex_hull``) and ``HEIGHTFIELD`` (``heightfield``).
 """
 import math
 
+import numpy as np
 from numba import njit
 
 from ...math.quat import quat_rotate, quat_rotate_inv
@@ -18,7 +24,11 @@ from .primitives import (box_sdf, collide_capsule_box, collide_capsule_capsule,
                          collide_plane_sphere, collide_sphere_box, collide_sphere_capsule,
                          collide_sphere_cylinder, collide_sphere_sphere, cylinder_sdf,
                          segment_box_deepest, segment_closest)
-from .shapes import BOX, CAPSULE, CYLINDER, PLANE, SPHERE, support
+from .convex_hull import (collide_convex_general, collide_plane_convex, convex_distance,
+                          hull_aabb, plane_convex_distance, raycast_convex)
+from .heightfield import collide_hfield, hfield_aabb, hfield_distance, raycast_hfield
+from .raycast import raycast_geom
+from .shapes import BOX, CAPSULE, CONVEX, CYLINDER, HEIGHTFIELD, PLANE, SPHERE, geom_aabb, support
 
 
 @njit(cache=True)
@@ -175,3 +185,136 @@ def geom_distance(type_a, pos_a, quat_a, size_a, type_b, pos_b, quat_b, size_b):
         return _distance_ordered(type_a, pa, qa, sa, type_b, pb, qb, sb)
     d, xb, xa = _distance_ordered(type_b, pb, qb, sb, type_a, pa, qa, sa)
     return d, xa, xb
+
+
+# ----------------------------------------------------- any geom of a model (all types)
+
+@njit(cache=True)
+def geom_verts(m, g):
+    """Hull vertices of convex geom ``g`` (a view of ``m.mesh_vert``); an empty view for
+    other types."""
+    if m.geom_type[g] == CONVEX:
+        k = m.geom_dataid[g]
+        a = m.mesh_vert_adr[k]
+        return m.mesh_vert[a:a + m.mesh_vert_num[k]]
+    return m.mesh_vert[0:0]
+
+
+@njit(cache=True)
+def geom_hfield(m, g):
+    """``(heights (nrow * ncol,) view, nrow, ncol)`` of heightfield geom ``g``."""
+    k = m.geom_dataid[g]
+    a = m.hfield_adr[k]
+    nr = m.hfield_nrow[k]
+    nc = m.hfield_ncol[k]
+    return m.hfield_data[a:a + nr * nc], nr, nc
+
+
+@njit(cache=True)
+def _flip_rows(out_normal, start, cnt):
+    for i in range(start, start + cnt):
+        out_normal[i, 0] = -out_normal[i, 0]
+        out_normal[i, 1] = -out_normal[i, 1]
+        out_normal[i, 2] = -out_normal[i, 2]
+
+
+@njit(cache=True)
+def collide_geoms(m, ga, pos_a, quat_a, gb, pos_b, quat_b, margin, out_point, out_normal,
+                  out_depth, out_feature, start):
+    """Contacts between geoms ``ga`` and ``gb`` of model arrays ``m`` (any of the 7
+    types), at world poses. Same output convention as :func:`collide_pair` (normal
+    from A to B, at most 4 rows from ``start``); returns the number of rows.
+
+    Primitives go to :func:`collide_pair`; convex hulls to ``convex_hull``;
+    heightfields to ``heightfield``. Heightfield-heightfield and heightfield-plane
+    pairs never collide.
+    """
+    ta = np.int64(m.geom_type[ga])
+    tb = np.int64(m.geom_type[gb])
+    if ta < CONVEX and tb < CONVEX:
+        return collide_pair(ta, pos_a, quat_a, m.geom_size[ga], tb, pos_b, quat_b,
+                            m.geom_size[gb], margin, out_point, out_normal, out_depth,
+                            out_feature, start)
+    if ta == HEIGHTFIELD or tb == HEIGHTFIELD:
+        if ta == tb or ta == PLANE or tb == PLANE:
+            return 0
+        flip = ta != HEIGHTFIELD
+        gh, go = (gb, ga) if flip else (ga, gb)
+        ph, qh, po, qo = (pos_b, quat_b, pos_a, quat_a) if flip else (pos_a, quat_a, pos_b,
+                                                                      quat_b)
+        H, nr, nc = geom_hfield(m, gh)
+        return collide_hfield(H, nr, nc, m.geom_size[gh], ph, qh, np.int64(m.geom_type[go]), po, qo,
+                              m.geom_size[go], geom_verts(m, go), margin, flip, out_point,
+                              out_normal, out_depth, out_feature, start)
+    if ta == PLANE:
+        return collide_plane_convex(pos_a, quat_a, pos_b, quat_b, geom_verts(m, gb), margin,
+                                    out_point, out_normal, out_depth, out_feature, start)
+    if tb == PLANE:
+        cnt = collide_plane_convex(pos_b, quat_b, pos_a, quat_a, geom_verts(m, ga), margin,
+                                   out_point, out_normal, out_depth, out_feature, start)
+        _flip_rows(out_normal, start, cnt)
+        return cnt
+    return collide_convex_general(ta, pos_a, quat_a, m.geom_size[ga], geom_verts(m, ga), tb,
+                                  pos_b, quat_b, m.geom_size[gb], geom_verts(m, gb), margin,
+                                  out_point, out_normal, out_depth, out_feature, start)
+
+
+@njit(cache=True)
+def geom_aabb_any(m, g, pos, quat, margin):
+    """World AABB ``(lo, hi)`` of geom ``g`` of any type, grown by ``margin`` (planes
+    unbounded; heightfields scan their heights)."""
+    t = np.int64(m.geom_type[g])
+    if t == CONVEX:
+        return hull_aabb(geom_verts(m, g), pos, quat, margin)
+    if t == HEIGHTFIELD:
+        H, nr, nc = geom_hfield(m, g)
+        return hfield_aabb(H, m.geom_size[g], pos, quat, margin)
+    return geom_aabb(t, pos, quat, m.geom_size[g], margin)
+
+
+@njit(cache=True)
+def raycast_any(m, g, pos, quat, origin, direction, max_dist):
+    """Ray cast against geom ``g`` of any type: ``(t, world normal)`` or
+    ``(-1, (0, 0, 0))`` (see ``raycast``)."""
+    t = np.int64(m.geom_type[g])
+    p, q, o, d = v3(pos), q4(quat), v3(origin), v3(direction)
+    if t == CONVEX:
+        return raycast_convex(geom_verts(m, g), p, q, o, d, float(max_dist))
+    if t == HEIGHTFIELD:
+        H, nr, nc = geom_hfield(m, g)
+        return raycast_hfield(H, nr, nc, m.geom_size[g], p, q, o, d, float(max_dist))
+    return raycast_geom(t, p, q, v3(m.geom_size[g]), o, d, float(max_dist))
+
+
+@njit(cache=True)
+def geom_distance_any(m, ga, pos_a, quat_a, gb, pos_b, quat_b):
+    """Signed distance ``(d, point_a, point_b)`` between geoms of any types (see
+    :func:`geom_distance`). Convex pairs: GJK when apart (exact), MPR with refinement
+    when penetrating. Heightfields: see ``heightfield.hfield_distance``; against a
+    plane or another heightfield ``inf``."""
+    ta = np.int64(m.geom_type[ga])
+    tb = np.int64(m.geom_type[gb])
+    if ta < CONVEX and tb < CONVEX:
+        return geom_distance(ta, pos_a, quat_a, m.geom_size[ga], tb, pos_b, quat_b,
+                             m.geom_size[gb])
+    if ta == HEIGHTFIELD or tb == HEIGHTFIELD:
+        if ta == tb or ta == PLANE or tb == PLANE:
+            return math.inf, v3(pos_a), v3(pos_b)
+        flip = ta != HEIGHTFIELD
+        gh, go = (gb, ga) if flip else (ga, gb)
+        ph, qh, po, qo = (pos_b, quat_b, pos_a, quat_a) if flip else (pos_a, quat_a, pos_b,
+                                                                      quat_b)
+        H, nr, nc = geom_hfield(m, gh)
+        d, xh, xo = hfield_distance(H, nr, nc, m.geom_size[gh], ph, qh,
+                                    np.int64(m.geom_type[go]), po, qo, m.geom_size[go],
+                                    geom_verts(m, go))
+        if flip:
+            return d, xo, xh
+        return d, xh, xo
+    if ta == PLANE:
+        return plane_convex_distance(pos_a, quat_a, pos_b, quat_b, geom_verts(m, gb))
+    if tb == PLANE:
+        d, xb, xa = plane_convex_distance(pos_b, quat_b, pos_a, quat_a, geom_verts(m, ga))
+        return d, xa, xb
+    return convex_distance(ta, pos_a, quat_a, m.geom_size[ga], geom_verts(m, ga), tb, pos_b,
+                           quat_b, m.geom_size[gb], geom_verts(m, gb))

@@ -183,11 +183,12 @@ def _set(T, i, v):
 
 
 @njit(cache=True)
-def gjk_distance(ta, pa, qa, sa, tb, pb, qb, sb):
+def gjk_distance(ta, pa, qa, sa, tb, pb, qb, sb, va=None, vb=None):
     """Distance between the cores of two convex shapes.
 
     Returns ``(dist, point_a, point_b, overlap)``; when ``overlap`` the cores intersect
     (or are closer than about 1e-12 of their size) and the points are unreliable.
+    ``va``, ``vb``: hull vertices of ``CONVEX`` shapes (see ``shapes.support_core``).
     """
     W = (_Z3, _Z3, _Z3, _Z3)
     PA = (_Z3, _Z3, _Z3, _Z3)
@@ -195,8 +196,8 @@ def gjk_distance(ta, pa, qa, sa, tb, pb, qb, sb):
     v = sub(pa, pb)
     if norm2(v) < 1e-24:
         v = (1.0, 0.0, 0.0)
-    a0 = support_core(ta, pa, qa, sa, (-v[0], -v[1], -v[2]))
-    b0 = support_core(tb, pb, qb, sb, v)
+    a0 = support_core(ta, pa, qa, sa, (-v[0], -v[1], -v[2]), va)
+    b0 = support_core(tb, pb, qb, sb, v, vb)
     w = sub(a0, b0)
     W = _set(W, 0, w)
     PA = _set(PA, 0, a0)
@@ -204,10 +205,10 @@ def gjk_distance(ta, pa, qa, sa, tb, pb, qb, sb):
     L = (1.0, 0.0, 0.0, 0.0)
     n = 1
     v = w
-    sc = max(norm(sub(support_core(ta, pa, qa, sa, (1.0, 1.0, 1.0)),
-                      support_core(ta, pa, qa, sa, (-1.0, -1.0, -1.0)))),
-             norm(sub(support_core(tb, pb, qb, sb, (1.0, 1.0, 1.0)),
-                      support_core(tb, pb, qb, sb, (-1.0, -1.0, -1.0))))) + norm(sub(pa, pb))
+    sc = max(norm(sub(support_core(ta, pa, qa, sa, (1.0, 1.0, 1.0), va),
+                      support_core(ta, pa, qa, sa, (-1.0, -1.0, -1.0), va))),
+             norm(sub(support_core(tb, pb, qb, sb, (1.0, 1.0, 1.0), vb),
+                      support_core(tb, pb, qb, sb, (-1.0, -1.0, -1.0), vb)))) + norm(sub(pa, pb))
     tiny = (1e-12 * sc) ** 2
     overlap = False
     for _ in range(GJK_MAX_ITER):
@@ -215,8 +216,8 @@ def gjk_distance(ta, pa, qa, sa, tb, pb, qb, sb):
         if vv <= tiny:
             overlap = True
             break
-        a = support_core(ta, pa, qa, sa, (-v[0], -v[1], -v[2]))
-        b = support_core(tb, pb, qb, sb, v)
+        a = support_core(ta, pa, qa, sa, (-v[0], -v[1], -v[2]), va)
+        b = support_core(tb, pb, qb, sb, v, vb)
         w = sub(a, b)
         if vv - vdot(v, w) <= 1e-13 * vv:
             break
@@ -266,12 +267,12 @@ def gjk_distance(ta, pa, qa, sa, tb, pb, qb, sb):
 # ------------------------------------------------------------------------------ MPR
 
 @njit(cache=True)
-def _msup(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, d):
+def _msup(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, d, va, vb):
     """Support of ``A - B`` (shapes inflated by ``ra``, ``rb``) in direction ``d``:
     ``(w, point_a, point_b)``."""
     u = normalize_or(d, (1.0, 0.0, 0.0))
-    a = madd(support_core(ta, pa, qa, sa, u), u, ra)
-    b = madd(support_core(tb, pb, qb, sb, (-u[0], -u[1], -u[2])), u, -rb)
+    a = madd(support_core(ta, pa, qa, sa, u, va), u, ra)
+    b = madd(support_core(tb, pb, qb, sb, (-u[0], -u[1], -u[2]), vb), u, -rb)
     return sub(a, b), a, b
 
 
@@ -281,20 +282,21 @@ def _tri_normal(a, b, c):
 
 
 @njit(cache=True)
-def mpr_penetration(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, tol):
+def mpr_penetration(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, tol, va=None, vb=None):
     """Penetration of two convex shapes (cores inflated by ``ra``, ``rb``).
 
     Returns ``(hit, normal A->B, depth, point_a, point_b)`` where ``point_a`` is the
     point of A deepest in B and ``point_b`` that of B (``point_a - point_b`` is about
     ``depth * normal``). ``hit`` is False when the shapes do not overlap. ``tol`` is
-    the absolute length tolerance of the portal refinement.
+    the absolute length tolerance of the portal refinement. ``va``, ``vb``: hull
+    vertices of ``CONVEX`` shapes.
     """
     miss = (False, (0.0, 0.0, 1.0), 0.0, _Z3, _Z3)
     v0 = sub(pa, pb)
     if norm2(v0) < (tol * 1e-3) ** 2:
         v0 = (tol * 1e-3, 0.0, 0.0)
     d = (-v0[0], -v0[1], -v0[2])
-    v1, a1, b1 = _msup(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, d)
+    v1, a1, b1 = _msup(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, d, va, vb)
     if vdot(v1, d) <= 0.0:
         return miss
     d = vcross(v0, v1)
@@ -303,7 +305,7 @@ def mpr_penetration(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, tol):
         nv = norm(v0)
         n = (-v0[0] / nv, -v0[1] / nv, -v0[2] / nv)
         return True, n, vdot(v1, n), a1, b1
-    v2, a2, b2 = _msup(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, d)
+    v2, a2, b2 = _msup(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, d, va, vb)
     if vdot(v2, d) <= 0.0:
         return miss
     d = vcross(sub(v1, v0), sub(v2, v0))
@@ -318,7 +320,7 @@ def mpr_penetration(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, tol):
     for _ in range(MPR_MAX_ITER):
         if norm2(d) == 0.0:
             return miss
-        v3, a3, b3 = _msup(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, d)
+        v3, a3, b3 = _msup(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, d, va, vb)
         if vdot(v3, d) <= 0.0:
             return miss
         if vdot(vcross(v1, v3), v0) < 0.0:
@@ -343,7 +345,7 @@ def mpr_penetration(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, tol):
         n = normalize_or(nn, n)
         if not hit and vdot(n, v1) >= 0.0:
             hit = True
-        v4, a4, b4 = _msup(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, n)
+        v4, a4, b4 = _msup(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, n, va, vb)
         d4 = vdot(v4, n)
         if not hit and d4 < 0.0:
             return miss

@@ -9,6 +9,10 @@ Conventions (fixed by the lead engineer):
 * A plane passes through the geom position with normal = geom-local +z in the world;
   it is solid below (``n . (x - p) < 0`` is inside).
 * Poses are world poses: ``pos`` (3,), ``quat`` (4,) as (x, y, z, w).
+* ``CONVEX``: the convex hull of vertices given in the geom frame (``size`` unused).
+  Functions that can handle it take an optional trailing ``verts`` (k, 3) array of
+  those vertices (``convex_hull``); without it a convex geom cannot be evaluated.
+* ``HEIGHTFIELD``: static terrain, handled in ``heightfield`` (no support function).
 
 Round shapes are split into a *core* and a radius: a sphere is its centre plus its
 radius, a capsule its segment plus its radius. Boxes and cylinders have radius 0.
@@ -25,7 +29,9 @@ SPHERE = 1
 CAPSULE = 2
 BOX = 3
 CYLINDER = 4
-NUM_GEOM_TYPES = 5
+CONVEX = 5
+HEIGHTFIELD = 6
+NUM_GEOM_TYPES = 7
 
 #: Most contacts any pair routine writes.
 MAX_CONTACTS_PER_PAIR = 4
@@ -43,12 +49,33 @@ def core_radius(gtype, size):
 
 
 @njit(cache=True)
-def support_core(gtype, pos, quat, size, d):
+def hull_support_local(verts, dl):
+    """Index of the vertex of ``verts`` (k, 3) farthest along local direction ``dl``
+    (the first one on ties)."""
+    best = -math.inf
+    k = 0
+    for i in range(verts.shape[0]):
+        s = verts[i, 0] * dl[0] + verts[i, 1] * dl[1] + verts[i, 2] * dl[2]
+        if s > best:
+            best = s
+            k = i
+    return k
+
+
+@njit(cache=True)
+def support_core(gtype, pos, quat, size, d, verts=None):
     """World point of the core of the shape farthest along direction ``d``.
 
     ``d`` need not be unit. Ties (a face or edge orthogonal to ``d``) resolve to the
-    positive side, so the result is deterministic. Planes return their position.
+    positive side, so the result is deterministic (convex hulls: the first vertex).
+    Planes return their position. ``verts``: hull vertices, for ``CONVEX`` only.
     """
+    if verts is not None:
+        if gtype == CONVEX:
+            dl = quat_rotate_inv(quat, d)
+            k = hull_support_local(verts, dl)
+            w = quat_rotate(quat, (verts[k, 0], verts[k, 1], verts[k, 2]))
+            return (pos[0] + w[0], pos[1] + w[1], pos[2] + w[2])
     if gtype == SPHERE or gtype == PLANE:
         return (float(pos[0]), float(pos[1]), float(pos[2]))
     dl = quat_rotate_inv(quat, d)
@@ -75,9 +102,9 @@ def support_core(gtype, pos, quat, size, d):
 
 
 @njit(cache=True)
-def support(gtype, pos, quat, size, d):
+def support(gtype, pos, quat, size, d, verts=None):
     """World point of the whole shape (core plus radius) farthest along ``d`` (non-zero)."""
-    c = support_core(gtype, pos, quat, size, d)
+    c = support_core(gtype, pos, quat, size, d, verts)
     r = core_radius(gtype, size)
     if r == 0.0:
         return c
@@ -124,9 +151,16 @@ def geom_aabb(gtype, pos, quat, size, margin):
 
 
 @njit(cache=True)
-def shape_scale(gtype, size):
+def shape_scale(gtype, size, verts=None):
     """A length typical of the shape (largest half extent, or radius plus half length;
-    1 for planes), used to scale tolerances. Never below 1e-9."""
+    1 for planes; the largest vertex distance from the geom origin for convex hulls),
+    used to scale tolerances. Never below 1e-9."""
+    if verts is not None:
+        if gtype == CONVEX:
+            s = 0.0
+            for i in range(verts.shape[0]):
+                s = max(s, math.sqrt(verts[i, 0] ** 2 + verts[i, 1] ** 2 + verts[i, 2] ** 2))
+            return max(s, 1e-9)
     if gtype == PLANE:
         return 1.0
     if gtype == BOX:
