@@ -12,10 +12,11 @@ from scipy.spatial.transform import Rotation
 from ..errors import ModelError, TumbleWarning
 from ..pipeline.joints.types import CORE_ROWS, DOFS, JOINT_TYPES, ROWS_PER_DOF
 from . import mass as massprops
+from . import meshes
 from .model import BODY_KINDS, GEOM_TYPES, Model
 from .validate import index_of, positive, unit_quat, unit_vector, vector
 
-_MASSIVE_SHAPES = ("sphere", "box", "capsule", "cylinder")
+_MASSIVE_SHAPES = ("sphere", "box", "capsule", "cylinder", "convex")
 
 
 def body_pair_key(a, b, nbody):
@@ -111,10 +112,14 @@ class ModelBuilder:
     # ------------------------------------------------------------------- geoms
     def add_geom(self, body, type, size=None, *, radius=None, half_length=None, normal=None,
                  pos=(0.0, 0.0, 0.0), quat=(0.0, 0.0, 0.0, 1.0), friction=1.0, restitution=0.0,
-                 density=None, contype=1, conaffinity=1, margin=0.0, name=None):
+                 density=None, contype=1, conaffinity=1, margin=0.0, vertices=None,
+                 heights=None, name=None):
         """Attach a collision shape to ``body`` (index or name; None: the static world).
 
-        type : 'plane', 'sphere', 'capsule', 'box' or 'cylinder'.
+        type : 'plane', 'sphere', 'capsule', 'box', 'cylinder', 'convex' (the hull of
+            ``vertices`` (n, 3), geom frame, m) or 'heightfield' (``heights`` (nrow, ncol)
+            in m over ``size = (half_x, half_y, base)``; rows along y, columns along x;
+            static, like planes).
         size : sphere (radius,); capsule and cylinder (radius, half_length) with the axis
             along the geom's local z; box (hx, hy, hz) half extents. ``radius`` and
             ``half_length`` may be given by keyword instead.
@@ -146,9 +151,26 @@ class ModelBuilder:
                 raise ModelError(f"{where}: {e}") from None
         if type not in GEOM_TYPES:
             raise ModelError(f"{where}: type must be one of {list(GEOM_TYPES)}, got {type!r}")
-        geom_size = self._geom_size(type, size, radius, half_length, where)
+        mesh = hfield = None
+        if type == "convex":
+            if vertices is None or size is not None:
+                raise ModelError(f"{where}: a convex geom takes vertices=(n, 3), not size")
+            mesh = meshes.convex_hull(vertices, where)
+            geom_size = np.zeros(3)
+        elif type == "heightfield":
+            if heights is None or size is None:
+                raise ModelError(f"{where}: a heightfield needs heights=(nrow, ncol) and "
+                                 f"size=(half_x, half_y, base)")
+            hfield, geom_size = meshes.heightfield(heights, size, where)
+        elif vertices is not None or heights is not None:
+            raise ModelError(f"{where}: vertices and heights apply to convex and heightfield geoms")
+        else:
+            geom_size = self._geom_size(type, size, radius, half_length, where)
         gpos = vector(pos, 3, where, "pos")
         gquat = unit_quat(quat, where, "quat")
+        if type == "heightfield" and body_idx >= 0 and self._bodies[body_idx]["kind"] == "dynamic":
+            raise ModelError(f"{where}: a heightfield may only belong to the world or a static "
+                             f"body, not dynamic body '{self._bodies[body_idx]['name']}'")
         if type == "plane":
             if body_idx >= 0 and self._bodies[body_idx]["kind"] == "dynamic":
                 raise ModelError(f"{where}: a plane is infinite and may only belong to the world "
@@ -172,7 +194,7 @@ class ModelBuilder:
         self._geoms.append(dict(name=gname, body=body_idx, type=type, size=geom_size, pos=gpos,
                                 quat=gquat, friction=fr, restitution=rest, density=dens,
                                 contype=int(contype), conaffinity=int(conaffinity),
-                                margin=gmargin))
+                                margin=gmargin, mesh=mesh, hfield=hfield))
         return len(self._geoms) - 1
 
     @staticmethod
@@ -371,6 +393,7 @@ class ModelBuilder:
                  conaffinity=np.array([x["conaffinity"] for x in self._geoms], dtype=np.uint32),
                  margin=np.array([x["margin"] for x in self._geoms], dtype=float),
                  dataid=np.full(ng, -1, np.int32))
+        self._build_shape_data(g)
         g["exclude_keys"] = np.array(sorted(body_pair_key(a, c, nb) for a, c in self._excluded),
                                      dtype=np.int64)
         for gi, x in enumerate(self._geoms):
@@ -384,6 +407,29 @@ class ModelBuilder:
             g["quat"][gi] = (r_i.inv() * Rotation.from_quat(x["quat"])).as_quat()
         return Model(gravity=self.gravity.copy(), timestep=self.timestep, bodies=b, geoms=g,
                      joints=self._build_joints(b))
+
+    def _build_shape_data(self, g):
+        """Convex hull vertices and heightfield samples as flat arrays, indexed by dataid."""
+        verts, adr, num, hdata, hadr, nrow, ncol = [], [], [], [], [], [], []
+        for gi, x in enumerate(self._geoms):
+            if x["mesh"] is not None:
+                g["dataid"][gi] = len(adr)
+                adr.append(sum(num))
+                num.append(len(x["mesh"]))
+                verts.append(x["mesh"])
+            elif x["hfield"] is not None:
+                g["dataid"][gi] = len(hadr)
+                hadr.append(sum(len(h) for h in hdata))
+                nrow.append(x["hfield"].shape[0])
+                ncol.append(x["hfield"].shape[1])
+                hdata.append(x["hfield"].ravel())
+        g["mesh_vert_adr"] = np.array(adr, np.int32)
+        g["mesh_vert_num"] = np.array(num, np.int32)
+        g["mesh_vert"] = np.concatenate(verts).astype(float) if verts else np.zeros((0, 3))
+        g["hfield_adr"] = np.array(hadr, np.int32)
+        g["hfield_nrow"] = np.array(nrow, np.int32)
+        g["hfield_ncol"] = np.array(ncol, np.int32)
+        g["hfield_data"] = np.concatenate(hdata).astype(float) if hdata else np.zeros(0)
 
     def _build_joints(self, b):
         """Joint arrays: anchors and frames re-expressed in each body's COM principal frame."""
@@ -428,12 +474,16 @@ class ModelBuilder:
         default_density = d["density"] if d["density"] is not None else 1.0
         masses, coms, tensors = [], [], []
         for g in solids:
-            m, moments = massprops.shape_mass(g["type"], g["size"],
-                                              g["density"] or default_density)
             rot = Rotation.from_quat(g["quat"]).as_matrix()
+            dens = g["density"] or default_density
+            if g["type"] == "convex":
+                m, com_g, tensor_g = meshes.convex_mass(g["mesh"], dens, where)
+            else:
+                m, moments = massprops.shape_mass(g["type"], g["size"], dens)
+                com_g, tensor_g = np.zeros(3), np.diag(moments)
             masses.append(m)
-            coms.append(g["pos"])
-            tensors.append(rot @ np.diag(moments) @ rot.T)
+            coms.append(g["pos"] + rot @ com_g)
+            tensors.append(rot @ tensor_g @ rot.T)
         m, com, inertia = massprops.combine(masses, coms, tensors)
         if d["mass"] is not None:                 # keep the shape, scale to the given mass
             inertia = inertia * (d["mass"] / m)

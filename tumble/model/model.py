@@ -13,7 +13,8 @@ from .validate import index_of
 
 BODY_KINDS = {"dynamic": 0, "kinematic": 1, "static": 2}
 DYNAMIC, KINEMATIC, STATIC = 0, 1, 2
-GEOM_TYPES = {"plane": 0, "sphere": 1, "capsule": 2, "box": 3, "cylinder": 4}
+GEOM_TYPES = {"plane": 0, "sphere": 1, "capsule": 2, "box": 3, "cylinder": 4, "convex": 5,
+              "heightfield": 6}
 
 # What the compiled pipeline reads of a model (one namedtuple so kernels take one argument).
 ModelArrays = namedtuple("ModelArrays", [
@@ -146,13 +147,10 @@ class Model:
                                       "geom_quat", "geom_friction", "geom_restitution",
                                       "geom_contype", "geom_conaffinity", "geom_margin",
                                       "geom_dataid", "exclude_keys")},
-                                  mesh_vert_adr=_frozen(np.zeros(0, np.int32)),
-                                  mesh_vert_num=_frozen(np.zeros(0, np.int32)),
-                                  mesh_vert=_frozen(np.zeros((0, 3))),
-                                  hfield_adr=_frozen(np.zeros(0, np.int32)),
-                                  hfield_nrow=_frozen(np.zeros(0, np.int32)),
-                                  hfield_ncol=_frozen(np.zeros(0, np.int32)),
-                                  hfield_data=_frozen(np.zeros(0)))
+                                  **{k: _frozen(geoms[k]) for k in (
+                                      "mesh_vert_adr", "mesh_vert_num", "mesh_vert",
+                                      "hfield_adr", "hfield_nrow", "hfield_ncol",
+                                      "hfield_data")})
         self._seal()
 
     def __setattr__(self, name, value):

@@ -13,8 +13,7 @@ from numba import njit
 from ..math.quat import quat_mul, quat_rotate
 from ..model.model import DYNAMIC
 from .collision.broadphase import broadphase_pairs
-from .collision.dispatch import collide_pair
-from .collision.shapes import geom_aabb
+from .collision.dispatch import collide_geoms, geom_aabb_any
 
 # What collide_world reports besides the contact count.
 COLLIDE_OK, COLLIDE_PAIRS_FULL, COLLIDE_CONTACTS_FULL = 0, 1, 2
@@ -87,8 +86,7 @@ def collide_world(m, pos, quat, gpos, gquat, aabb_lo, aabb_hi, pairs, con, prev_
     nbody = pos.shape[0]
     geom_world_poses(m, pos, quat, gpos, gquat)
     for g in range(ng):
-        lo, hi = geom_aabb(m.geom_type[g], gpos[g], gquat[g], m.geom_size[g],
-                           max(m.geom_margin[g], world_margin))
+        lo, hi = geom_aabb_any(m, g, gpos[g], gquat[g], max(m.geom_margin[g], world_margin))
         for k in range(3):
             aabb_lo[g, k] = lo[k]
             aabb_hi[g, k] = hi[k]
@@ -105,9 +103,8 @@ def collide_world(m, pos, quat, gpos, gquat, aabb_lo, aabb_hi, pairs, con, prev_
         if count + 4 > cap:
             return COLLIDE_CONTACTS_FULL, 2 * cap + 64
         margin = max(m.geom_margin[ga], m.geom_margin[gb], world_margin)
-        n = collide_pair(m.geom_type[ga], gpos[ga], gquat[ga], m.geom_size[ga],
-                         m.geom_type[gb], gpos[gb], gquat[gb], m.geom_size[gb], margin,
-                         con.point, con.normal, con.depth, con.feature, count)
+        n = collide_geoms(m, ga, gpos[ga], gquat[ga], gb, gpos[gb], gquat[gb], margin,
+                          con.point, con.normal, con.depth, con.feature, count)
         # previous contacts are in the same (ga, gb) order: advance to this pair
         while p < prev_count and (prev.geom[p, 0] < ga or (prev.geom[p, 0] == ga and prev.geom[p, 1] < gb)):
             p += 1

@@ -1,8 +1,7 @@
 """Geometric queries on a world's current state: ray casts and distances between geoms."""
 from numba import njit
 
-from .collision.dispatch import geom_distance
-from .collision.raycast import raycast_geom
+from .collision.dispatch import geom_distance_any, raycast_any
 from .collide import geom_world_poses
 
 
@@ -17,8 +16,7 @@ def raycast_scene(m, pos, quat, gpos, gquat, origin, direction, max_dist, skip_b
     for g in range(m.geom_type.shape[0]):
         if skip_body >= -1 and m.geom_body[g] == skip_body:
             continue
-        t, n = raycast_geom(m.geom_type[g], gpos[g], gquat[g], m.geom_size[g], origin,
-                            direction, best)
+        t, n = raycast_any(m, g, gpos[g], gquat[g], origin, direction, best)
         if t >= 0.0 and (best_g < 0 or t < best):
             best, best_g, best_n = t, g, n
     return best, best_g, best_n
@@ -28,5 +26,4 @@ def raycast_scene(m, pos, quat, gpos, gquat, origin, direction, max_dist, skip_b
 def distance_between(m, pos, quat, gpos, gquat, ga, gb):
     """Signed distance (m) and closest points of geoms ``ga`` and ``gb`` (see geom_distance)."""
     geom_world_poses(m, pos, quat, gpos, gquat)
-    return geom_distance(m.geom_type[ga], gpos[ga], gquat[ga], m.geom_size[ga],
-                         m.geom_type[gb], gpos[gb], gquat[gb], m.geom_size[gb])
+    return geom_distance_any(m, ga, gpos[ga], gquat[ga], gb, gpos[gb], gquat[gb])

@@ -173,3 +173,28 @@ def test_a_free_joint_does_not_stop_collisions_with_the_world():
     w = tumble.World(b.build())
     w.step(60)
     assert w.body_pos[0, 2] == pytest.approx(0.5, abs=1e-3) and len(w.contacts) == 4
+
+
+def test_convex_foot_rests_on_a_heightfield_terrain():
+    """A convex hull (a wedge-free box of 8 points) on a sloped-then-flat heightfield."""
+    x = np.linspace(-2, 2, 21)
+    heights = np.tile(np.where(x < 0, 0.0, 0.0), (21, 1))      # flat terrain at z = 0
+    heights[:, :5] = 0.3                                       # a raised ledge at x < -1.2
+    corners = np.array([[sx * 0.1, sy * 0.05, sz * 0.03] for sx in (-1, 1)
+                        for sy in (-1, 1) for sz in (-1, 1)])
+    b = tumble.ModelBuilder()
+    b.add_geom(None, "heightfield", heights=heights, size=(2.0, 2.0, 0.5), name="terrain")
+    b.add_body("foot", pos=(0.5, 0, 0.2), density=1000.0)
+    b.add_geom("foot", "convex", vertices=corners)
+    model = b.build()
+    assert model.body_mass[0] == pytest.approx(1000.0 * 0.2 * 0.1 * 0.06)
+    w = tumble.World(model, contact="lcp")
+    w.step(240)
+    assert w.body_pos[0, 2] == pytest.approx(0.03, abs=1e-3)          # resting on the ground
+    assert np.abs(w.body_vel[0]).max() < 1e-3
+    t, geom, body, point, normal = w.raycast((-1.8, 0, 2), (0, 0, -1))
+    assert geom == "terrain" and t == pytest.approx(1.7, abs=1e-6)      # onto the ledge
+    with pytest.raises(tumble.ModelError, match="geom 'bad'"):
+        b.add_geom("foot", "convex", vertices=np.zeros((4, 3)), name="bad")
+    with pytest.raises(tumble.ModelError, match="heightfield may only belong"):
+        b.add_geom("foot", "heightfield", heights=heights, size=(1, 1, 0.1))
