@@ -48,7 +48,7 @@ from ...math.quat import quat_rotate, quat_rotate_inv
 from ._vec import (any_perp, local_to_world, madd, mid, norm, norm2, normalize_or, q4, scale,
                    sub, v3, vcross, vdot, write_contact)
 from .convex import COS_FACE, convex_contact
-from .gjk import _closest_triangle, gjk_distance
+from .gjk import _closest_triangle, gjk_distance, replace_portal_vertex
 from .manifold import incident_point, num_candidates, rim_frame
 from .shapes import (BOX, CAPSULE, CONVEX, CYLINDER, SPHERE, core_radius, shape_scale,
                      support_core)
@@ -195,17 +195,8 @@ def _mpr_tetra(ta, pa, qa, sa, va, tb, pb, qb, sb, vb, tol):
             return False, W, A, B
         if vdot(v4, n) - vdot(v1, n) <= tol:
             return False, W, A, B
-        c = vcross(v4, v0)
-        if vdot(v1, c) > 0.0:
-            if vdot(v2, c) > 0.0:
-                v1, a1, b1 = v4, a4, b4
-            else:
-                v3, a3, b3 = v4, a4, b4
-        else:
-            if vdot(v3, c) > 0.0:
-                v2, a2, b2 = v4, a4, b4
-            else:
-                v1, a1, b1 = v4, a4, b4
+        v1, a1, b1, v2, a2, b2, v3, a3, b3 = replace_portal_vertex(
+            v0, v1, a1, b1, v2, a2, b2, v3, a3, b3, v4, a4, b4)
     if not hit:
         return False, W, A, B
     for k in range(3):

@@ -281,6 +281,21 @@ def _tri_normal(a, b, c):
     return vcross(sub(b, a), sub(c, a))
 
 
+@njit(cache=True, inline="always")
+def replace_portal_vertex(v0, v1, a1, b1, v2, a2, b2, v3, a3, b3, v4, a4, b4):
+    """MPR portal refinement: the new support point ``v4`` (with its witness points ``a4``,
+    ``b4``) replaces the portal vertex on the side of the plane through ``v0`` and ``v4``
+    that keeps the origin ray inside the portal. Returns the three updated vertices."""
+    c = vcross(v4, v0)
+    if vdot(v1, c) > 0.0:
+        if vdot(v2, c) > 0.0:
+            return v4, a4, b4, v2, a2, b2, v3, a3, b3
+        return v1, a1, b1, v2, a2, b2, v4, a4, b4
+    if vdot(v3, c) > 0.0:
+        return v1, a1, b1, v4, a4, b4, v3, a3, b3
+    return v4, a4, b4, v2, a2, b2, v3, a3, b3
+
+
 @njit(cache=True)
 def mpr_penetration(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, tol, va=None, vb=None):
     """Penetration of two convex shapes (cores inflated by ``ra``, ``rb``).
@@ -352,17 +367,8 @@ def mpr_penetration(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, tol, va=None, vb=Non
         gap = min(d4 - vdot(v1, n), min(d4 - vdot(v2, n), d4 - vdot(v3, n)))
         if gap <= tol:
             break
-        c = vcross(v4, v0)
-        if vdot(v1, c) > 0.0:
-            if vdot(v2, c) > 0.0:
-                v1, a1, b1 = v4, a4, b4
-            else:
-                v3, a3, b3 = v4, a4, b4
-        else:
-            if vdot(v3, c) > 0.0:
-                v2, a2, b2 = v4, a4, b4
-            else:
-                v1, a1, b1 = v4, a4, b4
+        v1, a1, b1, v2, a2, b2, v3, a3, b3 = replace_portal_vertex(
+            v0, v1, a1, b1, v2, a2, b2, v3, a3, b3, v4, a4, b4)
     if not hit:
         return miss
     depth = vdot(n, v1)

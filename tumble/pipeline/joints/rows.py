@@ -8,7 +8,6 @@ ERP/CFM: a row with error C asks for the velocity ``-ERP C / h`` and is softened
 ``CFM`` (ODE's units: m/N or rad/(N m) per second). A spring k and damper c acting on
 the error at step h are reproduced by ``ERP = h k / (h k + c)``, ``CFM = 1 / (h k + c)``.
 """
-import numpy as np
 from numba import njit
 
 from ...math.quat import quat_conj, quat_mul
@@ -181,16 +180,17 @@ def joint_reactions(m, pos, quat, rows, impulse, h, force_out, torque_out):
     """Force (N) and torque about the anchor (N m) each joint exerts on its child, world frame,
     averaged over the step: the impulses of all its rows divided by ``h``."""
     for j in range(m.joint_type.shape[0]):
-        f = np.zeros(3)
-        t = np.zeros(3)
+        for k in range(3):
+            force_out[j, k] = 0.0
+            torque_out[j, k] = 0.0
         for r in range(m.joint_row_start[j], m.joint_row_start[j] + m.joint_row_count[j]):
             p = impulse[r] / h
             for k in range(3):
-                f[k] += rows.J[r, 6 + k] * p
-                t[k] += rows.J[r, 9 + k] * p
-        anchor_a, anchor_b, r_a, r_b, frame_a, frame_b = joint_frames(m, pos, quat, j)
+                force_out[j, k] += rows.J[r, 6 + k] * p
+                torque_out[j, k] += rows.J[r, 9 + k] * p
+        r_b = joint_frames(m, pos, quat, j)[3]
+        f = force_out[j]
         # torque about the COM = torque about the anchor + r_b x f
         c = (r_b[1] * f[2] - r_b[2] * f[1], r_b[2] * f[0] - r_b[0] * f[2], r_b[0] * f[1] - r_b[1] * f[0])
         for k in range(3):
-            force_out[j, k] = f[k]
-            torque_out[j, k] = t[k] - c[k]
+            torque_out[j, k] -= c[k]

@@ -38,16 +38,6 @@ def row_active(rows, r):
 
 
 @njit(cache=True)
-def friction_bounds(rows, nrow, impulse):
-    """Set each friction row's bounds to -+ mu times its normal row's impulse."""
-    for r in range(nrow):
-        if rows.parent[r] >= 0:
-            b = rows.mu[r] * max(impulse[rows.parent[r]], 0.0)
-            rows.lo[r] = -b
-            rows.hi[r] = b
-
-
-@njit(cache=True)
 def minv_jt(rows, r, inv_mass, inv_inertia, out):
     """``M^-1 J_r^T`` (12,) for row r: the velocity change per unit impulse."""
     for side in range(2):
