@@ -11,6 +11,7 @@ from .pipeline import step as pipeline_step
 from .pipeline.contacts.arrays import make_contacts
 from .pipeline.contacts.penalty import default_penalty
 from .pipeline.queries import distance_between, raycast_scene
+from .pipeline.actuators import PD_MODES
 from .pipeline.integrate import GYRO_EXPLICIT, GYRO_IMPLICIT, GYRO_NONE, QUAT_EXP, QUAT_LINEAR
 
 GYROSCOPIC = {"implicit": GYRO_IMPLICIT, "explicit": GYRO_EXPLICIT, "none": GYRO_NONE}
@@ -103,6 +104,11 @@ class World:
     slip_velocity : penalty friction's regularisation speed (m/s); default ``|g| dt``.
     projection_tolerance : largest row error (m, rad) past which projection runs; below it ERP
         alone pulls joints together, which dissipates less.
+    pd : how joint PD servos act: 'implicit' (default; a soft constraint row solved with
+        the joints and contacts, stable for any gains and step), 'explicit' (the lecture's
+        torques from the state at the start of the step) or 'stable' (explicit torques with
+        the end-of-step velocity predicted per DoF, Tan et al. 2011). Same gains in all three;
+        may be changed between steps. See ``tumble.pipeline.actuators``.
 
     The state arrays ``body_pos``, ``body_quat``, ``body_vel``, ``body_angvel`` are live
     views: write into them between steps to set the state.
@@ -113,7 +119,7 @@ class World:
                  cfm=1e-10, iterations=300, tolerance=1e-12, warm_start=True, projection=2,
                  projection_tolerance=5e-5, contact_erp=0.2, contact_cfm=0.0, slop=1e-4,
                  bounce_threshold=0.2, penalty_stiffness=None, penalty_damping=None,
-                 slip_velocity=None, contact_margin=0.01):
+                 slip_velocity=None, contact_margin=0.01, pd="implicit"):
         if not isinstance(model, Model):
             raise ModelError(f"World needs a tumble Model, got {type(model).__name__}")
         self.model = model
@@ -167,6 +173,7 @@ class World:
             penalty_damping, "world", "penalty_damping", allow_zero=True)
         self.slip_velocity = None if slip_velocity is None else positive(
             slip_velocity, "world", "slip_velocity")
+        self.pd = pd
         self.nworld = int(nworld)
         nb, nw, nj = model.nbody, self.nworld, model.njoint
         self._state = pipeline_step.StateArrays(
@@ -174,6 +181,11 @@ class World:
             body_vel=np.zeros((nw, nb, 3)), body_angvel=np.zeros((nw, nb, 3)),
             applied_force=np.zeros((nw, nb, 3)), applied_torque=np.zeros((nw, nb, 3)),
             row_impulse=np.zeros((nw, model.nrow)), motor_target=np.zeros((nw, nj, 3)),
+            pd_kp=np.zeros((nw, nj)), pd_kd=np.zeros((nw, nj)), pd_max=np.zeros((nw, nj)),
+            pd_target_quat=np.zeros((nw, nj, 4)), pd_target_q=np.zeros((nw, nj, 3)),
+            pd_target_qd=np.zeros((nw, nj, 3)), joint_applied=np.zeros((nw, nj, 3)),
+            ctrl=np.zeros((nw, model.nactuator)), pd_prev_tau=np.zeros((nw, nj, 3)),
+            pd_prev_qd=np.zeros((nw, nj, 3)), pd_has_prev=np.zeros((nw, nj), bool),
             joint_q=np.zeros((nw, nj, 3)), joint_qd=np.zeros((nw, nj, 3)),
             joint_qrel=np.zeros((nw, nj, 4)), joint_force=np.zeros((nw, nj, 3)),
             joint_torque=np.zeros((nw, nj, 3)), contact_count=np.zeros(nw, np.int64),
@@ -191,6 +203,17 @@ class World:
     def dt(self, value):
         self._dt = positive(value, "world", "dt")
 
+    @property
+    def pd(self):
+        """PD servo mode: 'implicit', 'explicit' or 'stable' (see the class docs)."""
+        return self._pd
+
+    @pd.setter
+    def pd(self, value):
+        if value not in PD_MODES:
+            raise ModelError(f"world: pd must be one of {list(PD_MODES)}, got {value!r}")
+        self._pd = value
+
     # ------------------------------------------------------------------ state
     def reset(self):
         """Back to the model's initial state at time 0; applied forces cleared."""
@@ -206,8 +229,18 @@ class World:
         s.joint_force[:] = 0.0
         s.joint_torque[:] = 0.0
         s.contact_count[:] = 0
+        s.pd_kp[:] = self.model.joint_kp
+        s.pd_kd[:] = self.model.joint_kd
+        s.pd_max[:] = self.model.joint_max_torque
+        s.pd_target_qd[:] = 0.0
+        s.joint_applied[:] = 0.0
+        s.ctrl[:] = 0.0
+        s.pd_has_prev[:] = False
         self.time = 0.0
         self._update_joint_coordinates()
+        # servos hold the built pose until told otherwise
+        s.pd_target_quat[:] = s.joint_qrel
+        s.pd_target_q[:] = s.joint_q
 
     def _update_joint_coordinates(self):
         from .pipeline.joints.rows import joint_coordinates
@@ -291,6 +324,7 @@ class World:
             getattr(s, field)[...] = a
         self.time = time
         s.row_impulse[:] = 0.0
+        s.pd_has_prev[:] = False
         self._update_joint_coordinates()
 
     # ------------------------------------------------------------------- step
@@ -311,8 +345,7 @@ class World:
         if code != pipeline_step.STATE_OK:
             where = f"body '{self.model.body_names[b]}'" + (f" in world {w}" if self.nworld > 1 else "")
             raise StateError(f"{where}: {_STATE_FIELDS[code]}")
-        if not np.all(np.isfinite(s.motor_target)):
-            raise StateError("joint_motor_target is not finite")
+        self._check_drives()
         self._enforce_static()
         options = self._options()
         while True:
@@ -335,6 +368,41 @@ class World:
         self.time += n * self.dt
         s.applied_force[:] = 0.0
         s.applied_torque[:] = 0.0
+        s.joint_applied[:] = 0.0
+
+    def _check_drives(self):
+        """Refuse non-finite targets, negative gains; fold position actuators' controls."""
+        s, m = self._state, self.model
+        for field, name in (("motor_target", "joint_motor_target"),
+                            ("pd_target_quat", "pd_target_quat"), ("pd_target_q", "pd_target_q"),
+                            ("pd_target_qd", "pd_target_qd"), ("joint_applied", "joint torque"),
+                            ("ctrl", "ctrl"), ("pd_kp", "joint_kp"), ("pd_kd", "joint_kd")):
+            a = getattr(s, field)
+            bad = ~np.isfinite(a)
+            if field in ("pd_kp", "pd_kd"):
+                bad |= a < 0
+            if bad.any():
+                idx = np.argwhere(bad)[0]
+                what = (f"joint '{m.joint_names[idx[1]]}'" if field != "ctrl"
+                        else f"actuator '{m.actuator_names[idx[1]]}'")
+                raise StateError(f"{what}: {name} must be finite" + (
+                    " and >= 0" if field in ("pd_kp", "pd_kd") else "")
+                    + f", got {a[tuple(idx)]!r}")
+        if np.any(np.isnan(s.pd_max) | (s.pd_max <= 0)):
+            j = int(np.argwhere(np.isnan(s.pd_max) | (s.pd_max <= 0))[0][1])
+            raise StateError(f"joint '{m.joint_names[j]}': max_torque must be > 0")
+        quat_norm = np.linalg.norm(s.pd_target_quat, axis=-1)
+        ball = np.array([t == "ball" for t in m.joint_type_names], bool)
+        if np.any((quat_norm < 1e-12) & ball):
+            j = int(np.argwhere((quat_norm < 1e-12) & ball)[0][1])
+            raise StateError(f"joint '{m.joint_names[j]}': pd_target_quat is zero")
+        s.pd_target_quat[:] /= np.where(quat_norm > 0, quat_norm, 1.0)[..., None]
+        folded = np.flatnonzero(m.actuator_folded)
+        if folded.size:
+            c = np.clip(s.ctrl[:, folded], m.actuator_ctrlrange[folded, 0],
+                        m.actuator_ctrlrange[folded, 1])
+            s.pd_target_q[:, m.actuator_joint[folded], 0] = c / m.actuator_gear[folded]
+            s.pd_target_qd[:, m.actuator_joint[folded], 0] = 0.0
 
     def _options(self):
         k, c = self.penalty_parameters()
@@ -347,7 +415,7 @@ class World:
             float(self.projection_tolerance), CONTACT_MODELS[self.contact],
             float(self.contact_erp), float(self.contact_cfm), float(self.slop),
             float(self.bounce_threshold), float(k), float(c), float(v_slip),
-            float(self.contact_margin))
+            float(self.contact_margin), PD_MODES[self.pd])
 
     def penalty_parameters(self):
         """(stiffness N/m, damping N s/m) of penalty contacts at the current dt."""
@@ -402,6 +470,103 @@ class World:
         """Live (njoint, 3) motor target velocities (rad/s or m/s) of each degree of freedom;
         the motor pushes with at most the joint's ``motor_max_force``."""
         return self._view(self._state.motor_target)
+
+    # ------------------------------------------------------------- actuators
+    @property
+    def joint_kp(self):
+        """Live PD servo stiffness per joint (njoint,), N m/rad or N/m (0 with kd 0: off)."""
+        return self._view(self._state.pd_kp)
+
+    @joint_kp.setter
+    def joint_kp(self, value):
+        self._assign("pd_kp", value)
+
+    @property
+    def joint_kd(self):
+        """Live PD servo damping per joint (njoint,), N m s/rad or N s/m."""
+        return self._view(self._state.pd_kd)
+
+    @joint_kd.setter
+    def joint_kd(self, value):
+        self._assign("pd_kd", value)
+
+    @property
+    def joint_max_torque(self):
+        """Live bound on each DoF's servo torque (njoint,), N m or N (inf: none)."""
+        return self._view(self._state.pd_max)
+
+    @joint_max_torque.setter
+    def joint_max_torque(self, value):
+        self._assign("pd_max", value)
+
+    @property
+    def pd_target_quat(self):
+        """Live servo targets of ball joints (njoint, 4): the child joint frame relative to
+        the parent's (x, y, z, w), as ``joint_quat`` reports it. Starts at the built pose."""
+        return self._view(self._state.pd_target_quat)
+
+    @pd_target_quat.setter
+    def pd_target_quat(self, value):
+        self._assign("pd_target_quat", value)
+
+    @property
+    def pd_target_q(self):
+        """Live servo targets of hinge, universal and slider joints (njoint, 3), in the
+        coordinates of ``joint_q`` (rad or m). Starts at the built pose."""
+        return self._view(self._state.pd_target_q)
+
+    @pd_target_q.setter
+    def pd_target_q(self, value):
+        self._assign("pd_target_q", value)
+
+    @property
+    def pd_target_qd(self):
+        """Live servo target rates (njoint, 3) along the axes of ``joint_qd``; default 0."""
+        return self._view(self._state.pd_target_qd)
+
+    @pd_target_qd.setter
+    def pd_target_qd(self, value):
+        self._assign("pd_target_qd", value)
+
+    def set_pd_gains(self, joint, kp, kd, max_torque=None, *, world=None):
+        """Set one joint's servo gains (kp N m/rad, kd N m s/rad; joint by index or name)."""
+        j = self.model.joint_index(joint)
+        wsl = self._world_slice(world)
+        where = f"joint '{self.model.joint_names[j]}'"
+        self._state.pd_kp[wsl, j] = positive(kp, where, "kp", allow_zero=True)
+        self._state.pd_kd[wsl, j] = positive(kd, where, "kd", allow_zero=True)
+        if max_torque is not None:
+            self._state.pd_max[wsl, j] = positive(max_torque, where, "max_torque")
+
+    def apply_joint_torque(self, joint, torque, *, world=None):
+        """Add a torque (N m; force in N for sliders) per degree of freedom of ``joint``
+        along the axes of ``joint_qd``: +tau on the child, -tau on the parent. Acts through
+        the next ``step(n)`` call, then is cleared, like ``apply_force``."""
+        j = self.model.joint_index(joint)
+        wsl = self._world_slice(world)
+        n = int(self.model.joint_ndof[j])
+        t = np.asarray(torque, float)
+        if t.shape not in ((n,), (self.nworld, n)) or (t.shape != (n,) and world is not None):
+            raise ModelError(f"apply_joint_torque on joint '{self.model.joint_names[j]}': "
+                             f"torque must have shape ({n},), got {t.shape}")
+        if not np.all(np.isfinite(t)):
+            raise ModelError(f"apply_joint_torque on joint '{self.model.joint_names[j]}': "
+                             f"torque is not finite: {t.tolist()}")
+        self._state.joint_applied[wsl, j, :n] += t
+
+    @property
+    def joint_applied_torque(self):
+        """Live (njoint, 3) torques per DoF applied through the next ``step(n)`` call."""
+        return self._view(self._state.joint_applied)
+
+    @property
+    def ctrl(self):
+        """Live MJCF actuator controls (nactuator,) or (nworld, nactuator)."""
+        return self._view(self._state.ctrl)
+
+    @ctrl.setter
+    def ctrl(self, value):
+        self._assign("ctrl", value)
 
     def joint_separation(self):
         """Distance (m) between each joint's two anchor points: the drift; (njoint,)."""

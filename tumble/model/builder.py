@@ -56,6 +56,7 @@ class ModelBuilder:
         self._geom_names = set()
         self._joints = []
         self._joint_names = set()
+        self._actuators = []
         self._excluded = set()
 
     # ------------------------------------------------------------------ bodies
@@ -236,7 +237,7 @@ class ModelBuilder:
     # ------------------------------------------------------------------ joints
     def add_joint(self, name, type, parent, child, anchor=None, axis=None, axis2=None, *,
                   limit=None, damping=0.0, friction=0.0, motor_max_force=0.0, erp=None,
-                  cfm=None, spring=None, collide=False):
+                  cfm=None, spring=None, collide=False, kp=0.0, kd=0.0, max_torque=None):
         """Join ``child`` to ``parent`` (index or name; None: the world). Returns the index.
 
         type : 'ball', 'hinge' (axis), 'universal' (axis on the parent, axis2 on the
@@ -254,6 +255,11 @@ class ModelBuilder:
         spring : (k, c) to make the joint soft: its rows act as a spring k and damper c at
             every step size (ERP = hk / (hk + c), CFM = 1 / (hk + c)).
         collide : whether the two joined bodies may still collide (default False).
+        kp, kd, max_torque : the joint's PD servo: stiffness (N m/rad or N/m), damping
+            (N m s/rad or N s/m) and the bound on each degree of freedom's torque (N m or N,
+            default unbounded). Targets and gains live on the world (``World.pd_target``,
+            ``World.joint_kp``); the world's ``pd`` mode applies the servo implicitly
+            (default), explicitly or as stable PD. Off while kp and kd are 0.
         """
         where = f"joint '{name}'"
         if not isinstance(name, str) or not name:
@@ -327,7 +333,13 @@ class ModelBuilder:
                      motor_max=positive(motor_max_force, where, "motor_max_force",
                                         allow_zero=True),
                      erp=-1.0 if erp is None else float(erp),
-                     cfm=-1.0 if cfm is None else float(cfm), stiffness=k, soft_damping=cdamp)
+                     cfm=-1.0 if cfm is None else float(cfm), stiffness=k, soft_damping=cdamp,
+                     kp=positive(kp, where, "kp", allow_zero=True),
+                     kd=positive(kd, where, "kd", allow_zero=True),
+                     max_torque=np.inf if max_torque is None else positive(
+                         max_torque, where, "max_torque"))
+        if (entry["kp"] > 0 or entry["kd"] > 0) and type in ("fixed", "free"):
+            raise ModelError(f"{where}: a {type} joint has no degree of freedom to servo")
         far = min(np.linalg.norm(anchor_w - child_pos),
                   np.linalg.norm(anchor_w - self._bodies[p]["pos"]) if p >= 0 else np.inf)
         if far > 2.0:
@@ -338,6 +350,64 @@ class ModelBuilder:
         if not collide and type != "free":      # a free joint joins nothing to filter
             self._excluded.add((min(p, c), max(p, c)))
         return len(self._joints) - 1
+
+    def add_actuator(self, name, joint, kind="motor", *, axis=None, dof=None, gear=1.0, kp=0.0,
+                     kv=0.0, ctrlrange=None, forcerange=None):
+        """An MJCF-style actuator on ``joint``, driven by ``World.ctrl``. Returns its index.
+
+        kind : 'motor' (force ``ctrl``) or 'position' (force ``kp (ctrl - gear q) -
+            kv gear qd``); the joint feels ``gear`` times the force, along ``axis``.
+        axis : world direction in the built pose (default: the joint's axis for hinges and
+            sliders); or ``dof`` = 0, 1, 2 picks the joint frame's x, y, z axis.
+        ctrlrange, forcerange : (lo, hi) clamps of the control and of the force (default
+            none). A position actuator alone on a hinge or slider, along its axis and with a
+            symmetric force range, becomes the joint's PD servo so it runs implicitly.
+        """
+        where = f"actuator '{name}'"
+        if not isinstance(name, str) or not name:
+            raise ModelError(f"actuator name must be a non-empty string, got {name!r}")
+        if any(a["name"] == name for a in self._actuators):
+            raise ModelError(f"{where}: an actuator with this name already exists")
+        if kind not in ("motor", "position"):
+            raise ModelError(f"{where}: kind must be 'motor' or 'position', got {kind!r}")
+        names = [j["name"] for j in self._joints]
+        try:
+            j = index_of(joint, {n: i for i, n in enumerate(names)}, "joint")
+        except ModelError as e:
+            raise ModelError(f"{where}: {e}") from None
+        jt = self._joints[j]
+        if jt["type"] in ("fixed", "free"):
+            raise ModelError(f"{where}: joint '{jt['name']}' is {jt['type']}: nothing to actuate")
+        frame = jt["frame"]                     # columns: joint frame axes, world, built pose
+        if axis is not None and dof is not None:
+            raise ModelError(f"{where}: give axis or dof, not both")
+        if axis is not None:
+            axis_j = frame.T @ unit_vector(axis, where, "axis")
+        elif dof is not None:
+            if dof not in (0, 1, 2):
+                raise ModelError(f"{where}: dof must be 0, 1 or 2, got {dof!r}")
+            axis_j = np.eye(3)[dof]
+        elif jt["type"] in ("hinge", "slider"):
+            axis_j = np.array([1.0, 0.0, 0.0])
+        else:
+            raise ModelError(f"{where}: a {jt['type']} joint needs an axis or dof")
+        g = vector([gear], 1, where, "gear")[0]
+        if g == 0.0:
+            raise ModelError(f"{where}: gear must not be 0")
+        ranges = []
+        for field, r in (("ctrlrange", ctrlrange), ("forcerange", forcerange)):
+            r = np.array([-np.inf, np.inf]) if r is None else vector(r, 2, where, field,
+                                                                    finite=False)
+            if np.isnan(r).any() or r[0] > r[1]:
+                raise ModelError(f"{where}: {field} must be (lo, hi) with lo <= hi, got "
+                                 f"{r.tolist()}")
+            ranges.append(r)
+        self._actuators.append(dict(
+            name=name, joint=j, kind=kind, axis=axis_j, gear=float(g),
+            kp=positive(kp, where, "kp", allow_zero=True),
+            kv=positive(kv, where, "kv", allow_zero=True), ctrlrange=ranges[0],
+            forcerange=ranges[1]))
+        return len(self._actuators) - 1
 
     def exclude_collision(self, body_a, body_b):
         """Never let these two bodies (index or name; None: the world) collide."""
@@ -405,8 +475,39 @@ class ModelBuilder:
             r_i = Rotation.from_quat(b["iquat"][bi])
             g["pos"][gi] = r_i.inv().apply(x["pos"] - b["ipos"][bi])
             g["quat"][gi] = (r_i.inv() * Rotation.from_quat(x["quat"])).as_quat()
+        joints = self._build_joints(b)
         return Model(gravity=self.gravity.copy(), timestep=self.timestep, bodies=b, geoms=g,
-                     joints=self._build_joints(b))
+                     joints=joints, actuators=self._build_actuators(joints))
+
+    def _build_actuators(self, joints):
+        """Actuator arrays; position actuators that can run as a joint servo are folded."""
+        acts = self._actuators
+        na = len(acts)
+        out = dict(names=[a["name"] for a in acts],
+                   joint=np.array([a["joint"] for a in acts], np.int32),
+                   kind=np.array([0 if a["kind"] == "motor" else 1 for a in acts], np.int32),
+                   axis=np.array([a["axis"] for a in acts], float).reshape(na, 3),
+                   gear=np.array([a["gear"] for a in acts], float),
+                   kp=np.array([a["kp"] for a in acts], float),
+                   kv=np.array([a["kv"] for a in acts], float),
+                   ctrlrange=np.array([a["ctrlrange"] for a in acts], float).reshape(na, 2),
+                   forcerange=np.array([a["forcerange"] for a in acts], float).reshape(na, 2),
+                   folded=np.zeros(na, bool))
+        per_joint = np.bincount(out["joint"], minlength=len(self._joints))
+        for i, a in enumerate(acts):
+            jt = self._joints[a["joint"]]
+            fr = a["forcerange"]
+            if (a["kind"] == "position" and jt["type"] in ("hinge", "slider")
+                    and per_joint[a["joint"]] == 1 and np.allclose(a["axis"], [1, 0, 0])
+                    and fr[0] == -fr[1] and jt["kp"] == 0.0 and jt["kd"] == 0.0):
+                # joint torque gear (kp (c - gear q) - kv gear qd) = servo with gains
+                # kp gear^2, kv gear^2 toward q = c / gear
+                g2 = a["gear"] ** 2
+                j = a["joint"]
+                joints["kp"][j], joints["kd"][j] = a["kp"] * g2, a["kv"] * g2
+                joints["max_torque"][j] = fr[1] * abs(a["gear"])
+                out["folded"][i] = True
+        return out
 
     def _build_shape_data(self, g):
         """Convex hull vertices and heightfield samples as flat arrays, indexed by dataid."""
@@ -442,7 +543,8 @@ class ModelBuilder:
                    anchor_a=np.zeros((nj, 3)), anchor_b=np.zeros((nj, 3)),
                    frame_a=np.zeros((nj, 4)), frame_b=np.zeros((nj, 4)),
                    limit=np.array([j["limit"] for j in self._joints]).reshape(nj, 2))
-        for key in ("erp", "cfm", "stiffness", "soft_damping", "damping", "friction", "motor_max"):
+        for key in ("erp", "cfm", "stiffness", "soft_damping", "damping", "friction", "motor_max",
+                    "kp", "kd", "max_torque"):
             out[key] = np.array([j[key] for j in self._joints], dtype=float)
         out["core_rows"] = np.array([CORE_ROWS[t] for t in out["type"]], np.int32)
         out["ndof"] = np.array([DOFS[t] for t in out["type"]], np.int32)

@@ -61,6 +61,15 @@ ModelArrays = namedtuple("ModelArrays", [
     "hfield_data",        # (total,) heights, m, row-major
     "exclude_keys",       # (nexclude,) int64 sorted keys min(a,b) * (nbody+1) + max(a,b) of
                           # body pairs that never collide (world = nbody)
+    "act_joint",          # (nact,) int32 joint each actuator drives
+    "act_kind",           # (nact,) int32 0 motor, 1 position
+    "act_axis",           # (nact, 3) direction in the joint's parent frame
+    "act_gear",           # (nact,) joint force per actuator force
+    "act_kp",             # (nact,) position gain
+    "act_kv",             # (nact,) velocity gain
+    "act_ctrlrange",      # (nact, 2) control clamp
+    "act_forcerange",     # (nact, 2) actuator force clamp
+    "act_folded",         # (nact,) bool: runs as its joint's PD servo instead
 ])
 
 
@@ -89,9 +98,13 @@ class Model:
     joint_names, joint_type_names, joint_parent (-1 = world), joint_child, joint_ndof,
     joint_limit (njoint, 2), joint_damping, joint_friction, joint_motor_max, and the
     frames and anchors of each joint in its bodies (see ``ModelArrays``).
+    joint_kp, joint_kd, joint_max_torque : (njoint,) default PD servo gains and bounds.
+    actuator_names, actuator_joint, actuator_kind ('motor'/'position' names in
+    actuator_kind_names), actuator_gear, actuator_ctrlrange (nact, 2), ... (see
+    ``ModelBuilder.add_actuator``).
     """
 
-    def __init__(self, *, gravity, timestep, bodies, geoms, joints):
+    def __init__(self, *, gravity, timestep, bodies, geoms, joints, actuators=None):
         self.gravity = _frozen(np.asarray(gravity, float))
         self.timestep = float(timestep)
         self.body_names = list(bodies["names"])
@@ -124,8 +137,21 @@ class Model:
         self.joint_type_names = list(joints["type_names"])
         for key in ("type", "parent", "child", "anchor_a", "anchor_b", "frame_a", "frame_b",
                     "erp", "cfm", "stiffness", "soft_damping", "damping", "friction",
-                    "motor_max", "limit", "core_rows", "row_start", "row_count", "ndof"):
+                    "motor_max", "limit", "core_rows", "row_start", "row_count", "ndof",
+                    "kp", "kd", "max_torque"):
             setattr(self, "joint_" + key, _frozen(joints[key]))
+        if actuators is None:
+            actuators = dict(names=[], joint=np.zeros(0, np.int32), kind=np.zeros(0, np.int32),
+                             axis=np.zeros((0, 3)), gear=np.zeros(0), kp=np.zeros(0),
+                             kv=np.zeros(0), ctrlrange=np.zeros((0, 2)),
+                             forcerange=np.zeros((0, 2)), folded=np.zeros(0, bool))
+        self.actuator_names = list(actuators["names"])
+        self._actuator_index = {n: i for i, n in enumerate(self.actuator_names)}
+        for key in ("joint", "kind", "axis", "gear", "kp", "kv", "ctrlrange", "forcerange",
+                    "folded"):
+            setattr(self, "actuator_" + key, _frozen(actuators[key]))
+        self.actuator_kind_names = ["motor" if k == 0 else "position"
+                                    for k in self.actuator_kind]
         self.nrow = int(joints["nrow"])
 
         dynamic = self.body_kind == DYNAMIC
@@ -150,7 +176,10 @@ class Model:
                                   **{k: _frozen(geoms[k]) for k in (
                                       "mesh_vert_adr", "mesh_vert_num", "mesh_vert",
                                       "hfield_adr", "hfield_nrow", "hfield_ncol",
-                                      "hfield_data")})
+                                      "hfield_data")},
+                                  **{"act_" + k: getattr(self, "actuator_" + k) for k in (
+                                      "joint", "kind", "axis", "gear", "kp", "kv", "ctrlrange",
+                                      "forcerange", "folded")})
         self._seal()
 
     def __setattr__(self, name, value):
@@ -184,6 +213,14 @@ class Model:
     def joint_index(self, joint):
         """Index of a joint given by index or name; ModelError names an unknown one."""
         return index_of(joint, self._joint_index, "joint")
+
+    @property
+    def nactuator(self):
+        return len(self.actuator_names)
+
+    def actuator_index(self, actuator):
+        """Index of an actuator given by index or name; ModelError names an unknown one."""
+        return index_of(actuator, self._actuator_index, "actuator")
 
     def __repr__(self):
         return f"<tumble.Model: {self.nbody} bodies, {self.njoint} joints, {self.ngeom} geoms>"

@@ -10,15 +10,16 @@ from ..errors import ModelError
 QUAT_NORM_TOL = 1e-2
 
 
-def vector(value, n, where, field):
-    """``value`` as a finite float array of shape (n,)."""
+def vector(value, n, where, field, finite=True):
+    """``value`` as a float array of shape (n,), finite unless ``finite`` is False (then
+    only NaN is refused)."""
     try:
         a = np.array(value, dtype=float).reshape(-1)
     except (TypeError, ValueError):
         raise ModelError(f"{where}: {field} must be {n} numbers, got {value!r}") from None
     if a.shape != (n,):
         raise ModelError(f"{where}: {field} must be {n} numbers, got {a.size}: {value!r}")
-    if not np.all(np.isfinite(a)):
+    if (not np.all(np.isfinite(a))) if finite else np.isnan(a).any():
         raise ModelError(f"{where}: {field} has non-finite entries: {a.tolist()}")
     return a
 

@@ -29,7 +29,7 @@ def _rigid(m, j):
 
 
 @njit(cache=True)
-def project_joints(m, pos, quat, vel, angvel, motor_target, rows, inv_inertia, iterations,
+def project_joints(m, pos, quat, vel, angvel, drive, rows, inv_inertia, iterations,
                    tolerance):
     """Move bodies so every rigid joint's core rows hold at the position level, once some
     row's error exceeds ``tolerance`` (m or rad); below it ERP alone corrects the drift."""
@@ -50,7 +50,7 @@ def project_joints(m, pos, quat, vel, angvel, motor_target, rows, inv_inertia, i
     drot = np.zeros((nb, 3))
     for it in range(iterations):
         # with h = 1 and ERP = 1 each core row's rhs is minus its position error
-        build_joint_rows(m, pos, quat, zero, zero, motor_target, 1.0, 1.0, 0.0, rows)
+        build_joint_rows(m, pos, quat, zero, zero, drive, 1.0, 1.0, 0.0, rows, False)
         world_inverse_inertia(m, quat, inv_inertia)
         k = 0
         for j in range(nj):

@@ -2,6 +2,7 @@
 
     collide.collide_world           contacts: broad phase, filtering, narrow phase
     forces.accumulate_forces        gravity + applied forces and torques
+    actuators.actuator_forces       explicit PD servos, joint torques, MJCF actuators
     contacts.penalty                spring-damper contact forces (contact="penalty")
     integrate.integrate_velocities  Newton-Euler, gyroscopic term explicit or implicit
     joints.rows.build_joint_rows    constraint rows of every joint (ERP/CFM, limits, motors)
@@ -26,9 +27,11 @@ from .collide import COLLIDE_OK, COLLIDE_PAIRS_FULL, collide_world
 from .contacts.arrays import ContactArrays, make_contacts_nb
 from .contacts.penalty import penalty_forces
 from .contacts.rows import build_contact_rows, store_contact_impulses
+from .actuators import PD_IMPLICIT, PD_STABLE, actuator_forces
 from .forces import accumulate_forces
 from .integrate import first_bad_body, integrate_positions, integrate_velocities
 from .joints.rows import build_joint_rows, joint_coordinates, joint_reactions
+from .joints.servo import JointDrive
 from .solvers.common import make_rows_nb, world_inverse_inertia
 from .solvers.direct import solve_direct
 from .solvers.mlcp import solve_mlcp
@@ -44,7 +47,7 @@ StepOptions = namedtuple("StepOptions", [
     "dt", "gyroscopic", "quat_integration", "divergence_limit",
     "erp", "cfm", "solver", "iterations", "tolerance", "warm_start", "projection",
     "projection_tolerance", "contact", "contact_erp", "contact_cfm", "slop",
-    "bounce_threshold", "penalty_k", "penalty_c", "v_slip", "contact_margin"])
+    "bounce_threshold", "penalty_k", "penalty_c", "v_slip", "contact_margin", "pd_mode"])
 
 # Everything that changes while stepping, for the compiled step.
 StateArrays = namedtuple("StateArrays", [
@@ -56,6 +59,17 @@ StateArrays = namedtuple("StateArrays", [
     "applied_torque",  # (nworld, nbody, 3) N m, world frame, held through the call
     "row_impulse",     # (nworld, nrow) last step's impulse of every constraint row, N s
     "motor_target",    # (nworld, njoint, 3) motor target velocity of each DoF
+    "pd_kp",           # (nworld, njoint) PD servo stiffness (N m/rad, N/m); 0 and kd 0: off
+    "pd_kd",           # (nworld, njoint) PD servo damping (N m s/rad, N s/m)
+    "pd_max",          # (nworld, njoint) bound on each DoF's servo torque (N m or N)
+    "pd_target_quat",  # (nworld, njoint, 4) ball targets, child joint frame in the parent's
+    "pd_target_q",     # (nworld, njoint, 3) hinge/universal/slider target coordinates
+    "pd_target_qd",    # (nworld, njoint, 3) target rates along the DoF axes
+    "joint_applied",   # (nworld, njoint, 3) torque (force) per DoF, held through the call
+    "ctrl",            # (nworld, nactuator) MJCF actuator controls
+    "pd_prev_tau",     # (nworld, njoint, 3) stable PD: last servo torque per DoF
+    "pd_prev_qd",      # (nworld, njoint, 3) stable PD: the DoF rates it was computed at
+    "pd_has_prev",     # (nworld, njoint) bool: both above valid
     "joint_q",         # (nworld, njoint, 3) joint coordinates (rad or m)
     "joint_qd",        # (nworld, njoint, 3) their rates
     "joint_qrel",      # (nworld, njoint, 4) child joint frame relative to the parent's
@@ -161,12 +175,21 @@ def step_worlds(m, s, con, pairs, n, o):
     aabb_lo = np.zeros((ng, 3))
     aabb_hi = np.zeros((ng, 3))
     prev = make_contacts_nb(cap)
+    scratch = make_rows_nb(7)
     status, fail_w, fail_k, fail_b, needed = STEP_OK, -1, -1, -1, 0
+    # explicit actuator work only when something could push: a servo off the implicit
+    # path, an applied joint torque or an MJCF actuator
+    has_drives = m.act_joint.shape[0] > 0 or np.any(s.joint_applied != 0.0) or (
+        o.pd_mode != PD_IMPLICIT and (np.any(s.pd_kp > 0.0) or np.any(s.pd_kd > 0.0)))
     for w in range(nw):
         pos, quat = s.body_pos[w], s.body_quat[w]
         vel, angvel = s.body_vel[w], s.body_angvel[w]
         cw = ContactArrays(con.geom[w], con.body[w], con.point[w], con.normal[w], con.depth[w],
                            con.feature[w], con.friction[w], con.restitution[w], con.impulse[w])
+        drive = JointDrive(s.motor_target[w], s.pd_kp[w], s.pd_kd[w], s.pd_max[w],
+                           s.pd_target_quat[w], s.pd_target_q[w], s.pd_target_qd[w],
+                           s.joint_applied[w], s.pd_prev_tau[w], s.pd_prev_qd[w],
+                           s.pd_has_prev[w])
         for k in range(n):
             ncon = 0
             if ng > 1:
@@ -184,6 +207,11 @@ def step_worlds(m, s, con, pairs, n, o):
                     break
                 s.contact_count[w] = ncon
             accumulate_forces(m, s.applied_force[w], s.applied_torque[w], force, torque)
+            if has_drives:
+                if o.pd_mode == PD_STABLE:
+                    world_inverse_inertia(m, quat, inv_inertia)
+                actuator_forces(m, pos, quat, vel, angvel, drive, s.ctrl[w], o.pd_mode, h,
+                                inv_inertia, scratch, force, torque)
             if o.contact == CONTACT_PENALTY and ncon > 0:
                 penalty_forces(pos, vel, angvel, cw, ncon, o.penalty_k, o.penalty_c, o.v_slip, h,
                                force, torque)
@@ -191,8 +219,8 @@ def step_worlds(m, s, con, pairs, n, o):
             nrow = njrow + (3 * ncon if o.contact != CONTACT_PENALTY else 0)
             if nrow > 0:
                 if njrow > 0:
-                    build_joint_rows(m, pos, quat, vel, angvel, s.motor_target[w], h, o.erp,
-                                     o.cfm, rows)
+                    build_joint_rows(m, pos, quat, vel, angvel, drive, h, o.erp, o.cfm, rows,
+                                     o.pd_mode == PD_IMPLICIT)
                     imp[:njrow] = s.row_impulse[w]
                 if nrow > njrow:
                     build_contact_rows(pos, vel, angvel, cw, ncon, njrow, h, o.contact_erp,
@@ -208,7 +236,7 @@ def step_worlds(m, s, con, pairs, n, o):
                     store_contact_impulses(cw, ncon, njrow, imp)
             integrate_positions(m, pos, quat, vel, angvel, h, o.quat_integration)
             if njrow > 0 and o.projection > 0:
-                project_joints(m, pos, quat, vel, angvel, s.motor_target[w], rows, inv_inertia,
+                project_joints(m, pos, quat, vel, angvel, drive, rows, inv_inertia,
                                o.projection, o.projection_tolerance)
             bad = first_bad_body(pos, quat, vel, angvel, o.divergence_limit)
             if bad >= 0:
@@ -224,6 +252,7 @@ def step_worlds(m, s, con, pairs, n, o):
         s.body_angvel[:] = backup[3]
         s.row_impulse[:] = backup[4]
         s.contact_count[:] = backup[5]
+        s.pd_has_prev[:] = False
         con.geom[:] = con_backup.geom
         con.body[:] = con_backup.body
         con.point[:] = con_backup.point

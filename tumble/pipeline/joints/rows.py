@@ -12,6 +12,7 @@ from numba import njit
 
 from ...math.quat import quat_conj, quat_mul
 from . import ball, fixed, hinge, slider, universal
+from .servo import pd_error, servo_active, servo_row_terms
 from .common import INF, angular_row, clear_row, joint_frames, linear_row
 from .types import BALL, FIXED, HINGE, ROWS_PER_DOF, SLIDER, UNIVERSAL
 
@@ -46,9 +47,29 @@ def joint_dofs(m, pos, quat, j):
 
 
 @njit(cache=True)
-def build_joint_rows(m, pos, quat, vel, angvel, motor_target, h, erp, cfm, rows):
+def core_rows(m, rows, r, j, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm):
+    """Write joint j's core rows (those that hold it together) from row ``r`` on."""
+    t = m.joint_type[j]
+    if t == BALL:
+        ball.core_rows(m, rows, r, j, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm)
+    elif t == HINGE:
+        hinge.core_rows(m, rows, r, j, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm)
+    elif t == UNIVERSAL:
+        universal.core_rows(m, rows, r, j, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm)
+    elif t == FIXED:
+        fixed.core_rows(m, rows, r, j, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm)
+    elif t == SLIDER:
+        slider.core_rows(m, rows, r, j, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm)
+
+
+@njit(cache=True)
+def build_joint_rows(m, pos, quat, vel, angvel, drive, h, erp, cfm, rows, servo_rows):
     """Write every joint's rows for one world. ``erp`` and ``cfm`` are the world's defaults;
-    a joint's own values (>= 0) or its spring-damper override them. Returns the row count."""
+    a joint's own values (>= 0) or its spring-damper override them.
+
+    drive : JointDrive of this world. With ``servo_rows`` an active PD servo takes each
+    DoF's motor row as an implicit spring-damper (see ``servo.servo_row_terms``);
+    otherwise that row is the velocity motor when the joint has one."""
     for j in range(m.joint_type.shape[0]):
         t = m.joint_type[j]
         r = m.joint_row_start[j]
@@ -60,24 +81,23 @@ def build_joint_rows(m, pos, quat, vel, angvel, motor_target, h, erp, cfm, rows)
             c = m.joint_cfm[j] if m.joint_cfm[j] >= 0.0 else cfm
         erp_h, cfm_v = e / h, c / h
         n, axes, q, linear, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b = joint_dofs(m, pos, quat, j)
-        if t == BALL:
-            ball.core_rows(m, rows, r, j, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm_v)
-        elif t == HINGE:
-            hinge.core_rows(m, rows, r, j, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm_v)
-        elif t == UNIVERSAL:
-            universal.core_rows(m, rows, r, j, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm_v)
-        elif t == FIXED:
-            fixed.core_rows(m, rows, r, j, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm_v)
-        elif t == SLIDER:
-            slider.core_rows(m, rows, r, j, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm_v)
+        core_rows(m, rows, r, j, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm_v)
         r += m.joint_core_rows[j]
+        servo = servo_rows and servo_active(drive, j)
+        if servo:
+            err = pd_error(t, q, frame_a, frame_b, drive.target_quat[j], drive.target_q[j])
         for d in range(n):
             e_ax = axes[d]
             qd = _dof_velocity(e_ax, linear, a, b, vel, angvel, r_a, r_b)
             _limit_row(m, rows, r, j, a, b, e_ax, linear, q[d], qd, h, erp_h, cfm_v, r_a, r_b)
-            if m.joint_motor_max[j] > 0.0:
-                _dof_row(rows, r + 1, a, b, e_ax, linear, r_a, r_b, motor_target[j, d], 0.0,
-                         m.joint_motor_max[j] * h)
+            if servo:
+                rhs, cfm_s = servo_row_terms(drive.kp[j], drive.kd[j], h, err[d],
+                                             drive.target_qd[j, d])
+                _dof_row(rows, r + 1, a, b, e_ax, linear, r_a, r_b, rhs, cfm_s,
+                         drive.max_torque[j] * h)
+            elif m.joint_motor_max[j] > 0.0:
+                _dof_row(rows, r + 1, a, b, e_ax, linear, r_a, r_b, drive.motor_target[j, d],
+                         0.0, m.joint_motor_max[j] * h)
             else:
                 clear_row(rows, r + 1, a, b)
             if m.joint_damping[j] > 0.0:
