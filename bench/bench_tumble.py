@@ -4,6 +4,10 @@
 
 Variants pick World options: 'default' (direct joint solver, exact 'lcp' contacts), 'pgs'
 (projected Gauss-Seidel for joints and contacts), 'penalty' (spring-damper contacts).
+On the ragdoll PD scenes, 'implicit-pd', 'stable-pd' and 'explicit-pd' hold the pose with
+tumble's in-step joint servos (same gains, ``World(pd=...)``) instead of the Python-side
+:class:`ExplicitPD` of the other variants; ``ragdoll60pd`` and ``ragdoll120pd`` run the
+PD scene at those rates (the rates of ``peers/mujoco_native_pd.py --hz``).
 
 Compilation is excluded from the timing: a throwaway world of the same model is stepped
 first, which compiles every kernel the timed world uses (Numba compiles per type signature,
@@ -26,7 +30,9 @@ from bench import scenes as S  # noqa: E402
 from bench import tumble_scenes as T  # noqa: E402
 
 VARIANTS = {"default": {}, "pgs": dict(solver="pgs", contact="pgs"),
-            "penalty": dict(contact="penalty")}
+            "penalty": dict(contact="penalty"), "implicit-pd": dict(pd="implicit"),
+            "stable-pd": dict(pd="stable"), "explicit-pd": dict(pd="explicit")}
+EXTRA_SCENES = ["ragdoll60pd", "ragdoll120pd"]
 
 
 def make_world(model, variant):
@@ -155,7 +161,10 @@ def run_ragdoll(args, model, warm):
     _, pd = C.ragdoll_mode(args.scene)
     world = make_world(model, args.variant)
     control = None
-    if pd:
+    if pd and args.variant.endswith("-pd"):
+        for name, (kp, kd) in S.ragdoll_pd_gains(S.ragdoll_parts(), pd).items():
+            world.set_pd_gains(name, kp, kd)       # servo toward the built pose
+    elif pd:
         control = T.ExplicitPD(world, S.ragdoll_pd_gains(S.ragdoll_parts(), pd)).apply
         c0 = time.perf_counter()
         control()                     # warm the control path too (NumPy, first-call costs)
@@ -174,7 +183,7 @@ def run_ragdoll(args, model, warm):
 
 
 def main():
-    args = C.parse("tumble", list(VARIANTS))
+    args = C.parse("tumble", list(VARIANTS), C.SCENES + EXTRA_SCENES)
     model = T.build(args.scene)
     warm = warm_up(model, args.variant)
     fn = {"chain": run_chain, "stack": run_stack, "pyramid": run_pyramid,

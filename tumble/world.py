@@ -106,9 +106,10 @@ class World:
         alone pulls joints together, which dissipates less.
     pd : how joint PD servos act: 'implicit' (default; a soft constraint row solved with
         the joints and contacts, stable for any gains and step), 'explicit' (the lecture's
-        torques from the state at the start of the step) or 'stable' (explicit torques with
-        the end-of-step velocity predicted per DoF, Tan et al. 2011). Same gains in all three;
-        may be changed between steps. See ``tumble.pipeline.actuators``.
+        torques from the state at the start of the step) or 'stable' (stable PD, Tan et al.
+        2011: explicit torques predicted against the end-of-step state by a joints-only
+        implicit solve). Same gains in all three; may be changed between steps. See
+        ``tumble.pipeline.actuators``.
 
     The state arrays ``body_pos``, ``body_quat``, ``body_vel``, ``body_angvel`` are live
     views: write into them between steps to set the state.
@@ -184,8 +185,7 @@ class World:
             pd_kp=np.zeros((nw, nj)), pd_kd=np.zeros((nw, nj)), pd_max=np.zeros((nw, nj)),
             pd_target_quat=np.zeros((nw, nj, 4)), pd_target_q=np.zeros((nw, nj, 3)),
             pd_target_qd=np.zeros((nw, nj, 3)), joint_applied=np.zeros((nw, nj, 3)),
-            ctrl=np.zeros((nw, model.nactuator)), pd_prev_tau=np.zeros((nw, nj, 3)),
-            pd_prev_qd=np.zeros((nw, nj, 3)), pd_has_prev=np.zeros((nw, nj), bool),
+            ctrl=np.zeros((nw, model.nactuator)),
             joint_q=np.zeros((nw, nj, 3)), joint_qd=np.zeros((nw, nj, 3)),
             joint_qrel=np.zeros((nw, nj, 4)), joint_force=np.zeros((nw, nj, 3)),
             joint_torque=np.zeros((nw, nj, 3)), contact_count=np.zeros(nw, np.int64),
@@ -235,7 +235,6 @@ class World:
         s.pd_target_qd[:] = 0.0
         s.joint_applied[:] = 0.0
         s.ctrl[:] = 0.0
-        s.pd_has_prev[:] = False
         self.time = 0.0
         self._update_joint_coordinates()
         # servos hold the built pose until told otherwise
@@ -324,7 +323,6 @@ class World:
             getattr(s, field)[...] = a
         self.time = time
         s.row_impulse[:] = 0.0
-        s.pd_has_prev[:] = False
         self._update_joint_coordinates()
 
     # ------------------------------------------------------------------- step

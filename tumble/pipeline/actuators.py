@@ -12,15 +12,13 @@ How the servo enters the step is the world's PD mode:
 
 - explicit: ``tau`` from the state at the start of the step, added as a torque here. The
   lecture's PD, unstable once ``kd h / I`` or ``kp h^2 / I`` get large.
-- stable: stable PD in the explicit path (Tan, Liu and Turk 2011): the torque sees the
-  end-of-step state, ``tau = kp (e - h qd') - kd (qd' - qd_target)`` with ``qd' = qd + h
-  qdd``. In maximal coordinates the DoF's acceleration is linearised about the previous
-  step, ``qdd = qdd_prev + A (tau - tau_prev)``, ``A = J M^-1 J^T`` of the DoF, so
-  ``tau = (kp (e - h qd) - kd (qd - qd_t) - c (qdd_prev - A tau_prev)) / (1 + c A)`` with
-  ``c = h kd + h^2 kp``, and ``A`` the DoF's inverse inertia with the joint's own core
-  constraints holding its two bodies together (the rest of the body graph is neglected).
-  Static equilibria are exact (``tau = kp e`` at rest); it stays stable far beyond explicit
-  PD, but unlike the implicit mode it is not unconditional.
+- stable: stable PD in the explicit-torque path (Tan, Liu and Turk 2011): the torque that
+  the PD would exert against the end-of-step state, predicted with the full coupled
+  inertia of the body graph. The prediction is exactly the implicit servo solved with the
+  joints alone (no contacts): its row impulses, divided by h, are applied as explicit
+  torques, then the step runs as usual with the servo rows off. Stable for stiff gains like
+  the implicit mode; contacts are not part of the prediction (as in Tan et al.), and it
+  costs one extra joint solve per step.
 - implicit: no torque here; ``joints.rows`` writes the servo as a soft constraint row with
   ERP/CFM from (kp, kd) so the solver applies the implicit-Euler spring-damper, coupled
   through the whole body graph: stable for any gains and step.
@@ -33,9 +31,10 @@ import numpy as np
 from numba import njit
 
 from ..math.quat import quat_conj, quat_log, quat_mul, quat_rotate
-from .joints.common import INF
-from .joints.rows import _dof_row, _dof_velocity, core_rows, joint_dofs
-from .solvers.common import minv_jt
+from .integrate import integrate_velocities
+from .joints.rows import _dof_velocity, build_joint_rows, joint_dofs
+from .joints.types import ROWS_PER_DOF
+from .solvers.direct import solve_direct
 from .joints.servo import pd_error, servo_active
 
 PD_IMPLICIT, PD_EXPLICIT, PD_STABLE = 0, 1, 2
@@ -47,38 +46,6 @@ ACTUATOR_KINDS = {"motor": ACT_MOTOR, "position": ACT_POSITION}
 @njit(cache=True, inline="always")
 def _cross(a, b):
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
-
-
-@njit(cache=True)
-def dof_inverse_mass(m, inv_inertia, j, e, linear, anchor_a, anchor_b, r_a, r_b, frame_a,
-                     frame_b, scratch):
-    """Inverse effective inertia (or mass) of joint j's DoF along world axis ``e`` while its
-    core rows hold its two bodies together: the Schur complement of ``J M^-1 J^T``."""
-    a, b = m.joint_parent[j], m.joint_child[j]
-    nc = m.joint_core_rows[j]
-    core_rows(m, scratch, 0, j, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, 0.0, 0.0)
-    _dof_row(scratch, nc, a, b, e, linear, r_a, r_b, 0.0, 0.0, INF)
-    n = nc + 1
-    dv = np.zeros((n, 12))
-    for r in range(n):
-        minv_jt(scratch, r, m.body_inv_mass, inv_inertia, dv[r])
-    W = np.zeros((n, n))
-    for r in range(n):
-        for c in range(n):
-            s = 0.0
-            for k in range(12):
-                s += scratch.J[r, k] * dv[c, k]
-            W[r, c] = s
-    if nc == 0:
-        return W[0, 0]
-    Acc = W[:nc, :nc].copy()
-    for r in range(nc):
-        Acc[r, r] += 1e-12 * (1.0 + Acc[r, r])
-    x = np.linalg.solve(Acc, W[:nc, nc].copy())
-    out = W[nc, nc]
-    for r in range(nc):
-        out -= W[nc, r] * x[r]
-    return max(out, 0.0)
 
 
 @njit(cache=True)
@@ -102,18 +69,16 @@ def _apply_dof(force, torque, pos, a, b, e, linear, anchor_a, anchor_b, amount):
 
 
 @njit(cache=True)
-def actuator_forces(m, pos, quat, vel, angvel, drive, ctrl, mode, h, inv_inertia, scratch,
-                    force, torque):
+def actuator_forces(m, pos, quat, vel, angvel, drive, ctrl, mode, force, torque):
     """Add explicit actuator forces and torques (N, N m, world) to ``force``/``torque``.
 
-    drive : JointDrive of one world; ctrl : (nact,) MJCF controls; mode : PD_*;
-    inv_inertia : (nbody, 3, 3) world inverse inertia at ``quat``, and scratch : Rows of at
-    least 7 rows (both used by PD_STABLE only).
-    Servo torques are added only in the explicit and stable modes.
+    drive : JointDrive of one world; ctrl : (nact,) MJCF controls; mode : PD_*.
+    Servo torques are added here only in the explicit mode (``stable_servo_forces`` adds
+    those of the stable mode).
     """
     nj = m.joint_type.shape[0]
     for j in range(nj):
-        servo = mode != PD_IMPLICIT and servo_active(drive, j)
+        servo = mode == PD_EXPLICIT and servo_active(drive, j)
         applied = (drive.applied[j, 0] != 0.0 or drive.applied[j, 1] != 0.0
                    or drive.applied[j, 2] != 0.0)
         if not servo and not applied:
@@ -129,25 +94,11 @@ def actuator_forces(m, pos, quat, vel, angvel, drive, ctrl, mode, h, inv_inertia
             if servo:
                 qd = _dof_velocity(e, linear, a, b, vel, angvel, r_a, r_b)
                 kp, kd = drive.kp[j], drive.kd[j]
-                if mode == PD_STABLE:
-                    A = dof_inverse_mass(m, inv_inertia, j, e, linear, anchor_a, anchor_b, r_a,
-                                         r_b, frame_a, frame_b, scratch)
-                    c = h * kd + h * h * kp
-                    qdd_prev = (qd - drive.prev_qd[j, d]) / h if drive.has_prev[j] else 0.0
-                    tau_prev = drive.prev_tau[j, d] if drive.has_prev[j] else 0.0
-                    tau = (kp * (err[d] - h * qd) - kd * (qd - drive.target_qd[j, d])
-                           - c * (qdd_prev - A * tau_prev)) / (1.0 + c * A)
-                    drive.prev_qd[j, d] = qd
-                else:
-                    tau = kp * err[d] - kd * (qd - drive.target_qd[j, d])
+                tau = kp * err[d] - kd * (qd - drive.target_qd[j, d])
                 lim = drive.max_torque[j]
-                tau = min(max(tau, -lim), lim)
-                drive.prev_tau[j, d] = tau
-                amount += tau
+                amount += min(max(tau, -lim), lim)
             if amount != 0.0:
                 _apply_dof(force, torque, pos, a, b, e, linear, anchor_a, anchor_b, amount)
-        if servo and mode == PD_STABLE:
-            drive.has_prev[j] = True
     for i in range(m.act_joint.shape[0]):
         if m.act_folded[i]:
             continue
@@ -173,3 +124,43 @@ def actuator_forces(m, pos, quat, vel, angvel, drive, ctrl, mode, h, inv_inertia
         # MJCF: the force range bounds the actuator's force; the joint feels gear times it
         amount = min(max(amount, m.act_forcerange[i, 0]), m.act_forcerange[i, 1])
         _apply_dof(force, torque, pos, a, b, e, linear, anchor_a, anchor_b, m.act_gear[i] * amount)
+
+
+@njit(cache=True)
+def stable_servo_forces(m, pos, quat, vel, angvel, drive, h, o_erp, o_cfm, gyroscopic,
+                        tolerance, rows, imp, vel_pred, angvel_pred, inv_inertia, force,
+                        torque):
+    """Stable PD: add the servo forces of the implicit solve as explicit forces (N, N m).
+
+    Predicts the end-of-step velocities of the joints alone (``force``/``torque`` as they
+    stand, servo rows on, no contacts), then applies ``J^T impulse / h`` of every servo row.
+    rows, imp : scratch for the joint rows; vel_pred, angvel_pred : (nbody, 3) scratch;
+    inv_inertia : (nbody, 3, 3) world inverse inertia at ``quat``.
+    """
+    nj = m.joint_type.shape[0]
+    vel_pred[:] = vel
+    angvel_pred[:] = angvel
+    integrate_velocities(m, quat, vel_pred, angvel_pred, force, torque, h, gyroscopic)
+    build_joint_rows(m, pos, quat, vel_pred, angvel_pred, drive, h, o_erp, o_cfm, rows, True)
+    njrow = 0
+    for j in range(nj):
+        njrow = max(njrow, m.joint_row_start[j] + m.joint_row_count[j])
+    imp[:njrow] = 0.0
+    solve_direct(rows, njrow, m.body_inv_mass, inv_inertia, vel_pred, angvel_pred, imp,
+                 tolerance)
+    for j in range(nj):
+        if not servo_active(drive, j):
+            continue
+        r0 = m.joint_row_start[j] + m.joint_core_rows[j]
+        ndof = (m.joint_row_count[j] - m.joint_core_rows[j]) // ROWS_PER_DOF
+        for d in range(ndof):
+            r = r0 + d * ROWS_PER_DOF + 1
+            p = imp[r] / h
+            for side in range(2):
+                body = rows.body_a[r] if side == 0 else rows.body_b[r]
+                if body < 0:
+                    continue
+                o = 6 * side
+                for k in range(3):
+                    force[body, k] += rows.J[r, o + k] * p
+                    torque[body, k] += rows.J[r, o + 3 + k] * p

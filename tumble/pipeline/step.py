@@ -27,7 +27,7 @@ from .collide import COLLIDE_OK, COLLIDE_PAIRS_FULL, collide_world
 from .contacts.arrays import ContactArrays, make_contacts_nb
 from .contacts.penalty import penalty_forces
 from .contacts.rows import build_contact_rows, store_contact_impulses
-from .actuators import PD_IMPLICIT, PD_STABLE, actuator_forces
+from .actuators import PD_EXPLICIT, PD_IMPLICIT, PD_STABLE, actuator_forces, stable_servo_forces
 from .forces import accumulate_forces
 from .integrate import first_bad_body, integrate_positions, integrate_velocities
 from .joints.rows import build_joint_rows, joint_coordinates, joint_reactions
@@ -67,9 +67,6 @@ StateArrays = namedtuple("StateArrays", [
     "pd_target_qd",    # (nworld, njoint, 3) target rates along the DoF axes
     "joint_applied",   # (nworld, njoint, 3) torque (force) per DoF, held through the call
     "ctrl",            # (nworld, nactuator) MJCF actuator controls
-    "pd_prev_tau",     # (nworld, njoint, 3) stable PD: last servo torque per DoF
-    "pd_prev_qd",      # (nworld, njoint, 3) stable PD: the DoF rates it was computed at
-    "pd_has_prev",     # (nworld, njoint) bool: both above valid
     "joint_q",         # (nworld, njoint, 3) joint coordinates (rad or m)
     "joint_qd",        # (nworld, njoint, 3) their rates
     "joint_qrel",      # (nworld, njoint, 4) child joint frame relative to the parent's
@@ -175,12 +172,14 @@ def step_worlds(m, s, con, pairs, n, o):
     aabb_lo = np.zeros((ng, 3))
     aabb_hi = np.zeros((ng, 3))
     prev = make_contacts_nb(cap)
-    scratch = make_rows_nb(7)
+    vel_pred = np.empty((nb, 3))
+    angvel_pred = np.empty((nb, 3))
     status, fail_w, fail_k, fail_b, needed = STEP_OK, -1, -1, -1, 0
     # explicit actuator work only when something could push: a servo off the implicit
     # path, an applied joint torque or an MJCF actuator
+    has_servo = np.any(s.pd_kp > 0.0) or np.any(s.pd_kd > 0.0)
     has_drives = m.act_joint.shape[0] > 0 or np.any(s.joint_applied != 0.0) or (
-        o.pd_mode != PD_IMPLICIT and (np.any(s.pd_kp > 0.0) or np.any(s.pd_kd > 0.0)))
+        o.pd_mode == PD_EXPLICIT and has_servo)
     for w in range(nw):
         pos, quat = s.body_pos[w], s.body_quat[w]
         vel, angvel = s.body_vel[w], s.body_angvel[w]
@@ -188,8 +187,7 @@ def step_worlds(m, s, con, pairs, n, o):
                            con.feature[w], con.friction[w], con.restitution[w], con.impulse[w])
         drive = JointDrive(s.motor_target[w], s.pd_kp[w], s.pd_kd[w], s.pd_max[w],
                            s.pd_target_quat[w], s.pd_target_q[w], s.pd_target_qd[w],
-                           s.joint_applied[w], s.pd_prev_tau[w], s.pd_prev_qd[w],
-                           s.pd_has_prev[w])
+                           s.joint_applied[w])
         for k in range(n):
             ncon = 0
             if ng > 1:
@@ -208,10 +206,13 @@ def step_worlds(m, s, con, pairs, n, o):
                 s.contact_count[w] = ncon
             accumulate_forces(m, s.applied_force[w], s.applied_torque[w], force, torque)
             if has_drives:
-                if o.pd_mode == PD_STABLE:
-                    world_inverse_inertia(m, quat, inv_inertia)
-                actuator_forces(m, pos, quat, vel, angvel, drive, s.ctrl[w], o.pd_mode, h,
-                                inv_inertia, scratch, force, torque)
+                actuator_forces(m, pos, quat, vel, angvel, drive, s.ctrl[w], o.pd_mode,
+                                force, torque)
+            if has_servo and o.pd_mode == PD_STABLE:
+                world_inverse_inertia(m, quat, inv_inertia)
+                stable_servo_forces(m, pos, quat, vel, angvel, drive, h, o.erp, o.cfm,
+                                    o.gyroscopic, o.tolerance, rows, imp, vel_pred,
+                                    angvel_pred, inv_inertia, force, torque)
             if o.contact == CONTACT_PENALTY and ncon > 0:
                 penalty_forces(pos, vel, angvel, cw, ncon, o.penalty_k, o.penalty_c, o.v_slip, h,
                                force, torque)
@@ -252,7 +253,6 @@ def step_worlds(m, s, con, pairs, n, o):
         s.body_angvel[:] = backup[3]
         s.row_impulse[:] = backup[4]
         s.contact_count[:] = backup[5]
-        s.pd_has_prev[:] = False
         con.geom[:] = con_backup.geom
         con.body[:] = con_backup.body
         con.point[:] = con_backup.point

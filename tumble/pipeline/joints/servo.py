@@ -21,9 +21,6 @@ JointDrive = namedtuple("JointDrive", [
     "target_q",       # (njoint, 3) hinge/universal/slider target coordinates (rad or m)
     "target_qd",      # (njoint, 3) target rates along the DoF axes
     "applied",        # (njoint, 3) torque (or force) per DoF applied through the call
-    "prev_tau",       # (njoint, 3) last explicit servo torque per DoF (stable PD)
-    "prev_qd",        # (njoint, 3) DoF rates when it was computed (stable PD)
-    "has_prev",       # (njoint,) bool: the two above are valid
 ])
 
 
