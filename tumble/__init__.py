@@ -5,6 +5,7 @@ The public API (see the README and DESIGN notes):
     ModelBuilder, Model   build and validate a model
     World, State          step it and read or set its state
     load_bvh, Motion      motion capture in (and save_bvh out)
+    load_mjcf, load_urdf  MuJoCo MJCF and URDF model files in
     ModelError, StateError, SimulationError, TumbleError
 """
 from ._cache import invalidate_stale_kernels
@@ -12,7 +13,7 @@ from ._cache import invalidate_stale_kernels
 invalidate_stale_kernels()
 
 from .errors import ModelError, SimulationError, StateError, TumbleError
-from .io import Motion, load_bvh, load_bvh_string, save_bvh
+from .io import Motion, load_bvh, load_bvh_string, load_mjcf, load_urdf, save_bvh
 from .model import Model, ModelBuilder
 from .world import State, World
 
@@ -21,5 +22,5 @@ __version__ = "0.1.0"
 del invalidate_stale_kernels
 
 __all__ = ["ModelBuilder", "Model", "World", "State", "Motion", "load_bvh", "load_bvh_string",
-           "save_bvh",
+           "save_bvh", "load_mjcf", "load_urdf",
            "TumbleError", "ModelError", "StateError", "SimulationError", "__version__"]

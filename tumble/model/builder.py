@@ -242,10 +242,14 @@ class ModelBuilder:
 
         type : 'ball', 'hinge' (axis), 'universal' (axis on the parent, axis2 on the
             child, perpendicular), 'fixed', 'slider' (axis), or 'free' (no constraint;
-            parent must be None).
+            parent must be None). A ball joint may take ``axis`` (and ``axis2``,
+            perpendicular) to orient its joint frame, the frame its three coordinates,
+            limits and motors refer to (default: the world axes).
         anchor, axis, axis2 : world frame, in the pose the bodies were added in; the anchor
             defaults to the child's position.
-        limit : (lower, upper) for hinge (rad) and slider (m) joints.
+        limit : (lower, upper) for hinge (rad) and slider (m) joints; for universal and
+            ball joints the same bounds hold for every coordinate (the two Cardan angles,
+            or the three rotation-vector components in the joint frame).
         damping, friction : viscous (N m s/rad, N s/m) and dry (N m, N) resistance on every
             degree of freedom, applied implicitly by the solver.
         motor_max_force : bound (N m or N) of the velocity motor on every degree of freedom;
@@ -285,12 +289,14 @@ class ModelBuilder:
         child_pos = self._bodies[c]["pos"]
         anchor_w = child_pos.copy() if anchor is None else vector(anchor, 3, where, "anchor")
         needs_axis = type in ("hinge", "slider", "universal")
+        oriented_ball = type == "ball" and axis is not None
         if needs_axis and axis is None:
             raise ModelError(f"{where}: a {type} joint needs an axis")
-        if not needs_axis and (axis is not None or axis2 is not None):
+        if not needs_axis and not oriented_ball and (axis is not None or axis2 is not None):
             raise ModelError(f"{where}: a {type} joint takes no axis")
-        x_axis = unit_vector(axis, where, "axis") if needs_axis else np.array([1.0, 0, 0])
-        if type == "universal":
+        x_axis = (unit_vector(axis, where, "axis") if needs_axis or oriented_ball
+                  else np.array([1.0, 0, 0]))
+        if type == "universal" or (oriented_ball and axis2 is not None):
             if axis2 is None:
                 raise ModelError(f"{where}: a universal joint needs axis2")
             y_axis = unit_vector(axis2, where, "axis2")
@@ -304,12 +310,13 @@ class ModelBuilder:
             y_axis = np.cross(helper, x_axis)
             y_axis /= np.linalg.norm(y_axis)
         frame = np.column_stack([x_axis, y_axis, np.cross(x_axis, y_axis)])
-        if type in ("ball", "fixed", "free"):
+        if type in ("fixed", "free") or (type == "ball" and not oriented_ball):
             frame = np.eye(3)
         lim = np.array([1.0, -1.0])           # lower > upper: none
         if limit is not None:
-            if type not in ("hinge", "slider"):
-                raise ModelError(f"{where}: limits apply to hinge and slider joints")
+            if type not in ("hinge", "slider", "universal", "ball"):
+                raise ModelError(f"{where}: limits apply to hinge, slider, universal and "
+                                 f"ball joints")
             lim = vector(limit, 2, where, "limit")
             if lim[0] > lim[1]:
                 raise ModelError(f"{where}: limit lower {lim[0]} is above upper {lim[1]}")

@@ -220,7 +220,8 @@ def test_direct_and_pgs_agree_on_a_loaded_structure():
     (("ball", None, "nobody"), dict(), "unknown body 'nobody'"),
     (("ball", "a", None), dict(), "child must be a body"),
     (("twist", None, "a"), dict(), "type must be"),
-    (("ball", None, "a"), dict(limit=(0, 1)), "limits apply"),
+    (("fixed", None, "a"), dict(limit=(0, 1)), "limits apply"),
+    (("ball", None, "a"), dict(axis=(1, 0, 0), axis2=(1, 0, 0)), "perpendicular"),
     (("hinge", None, "a"), dict(axis=(0, 1, 0), limit=(1, 0)), "above upper"),
     (("free", "a", "w"), dict(), "no parent"),
 ])
@@ -252,3 +253,30 @@ def test_far_anchor_warns_and_loops_are_legal():
     w = tumble.World(b2.build(), dt=1 / 240)
     w.step(240)
     assert w.joint_separation().max() < 1e-4         # the default projection tolerance
+
+
+@pytest.mark.parametrize("joint,axes", [("ball", dict(axis=(0, 1, 0), axis2=(0, 0, 1))),
+                                        ("universal", dict(axis=(1, 0, 0), axis2=(0, 1, 0)))])
+def test_ball_and_universal_limits_bound_every_coordinate(joint, axes):
+    """A bob thrown sideways on a joint limited to +-0.3 rad: every coordinate stays inside
+    (to the limit rows' ERP overshoot, 0.02 rad) and the limit is reached."""
+    b = tumble.ModelBuilder()
+    b.add_body("bob", pos=(0, 0, -1), mass=1.0, inertia=(0.01, 0.01, 0.01), vel=(2.0, 1.5, 0))
+    b.add_joint("j", joint, None, "bob", anchor=(0, 0, 0), limit=(-0.3, 0.3), **axes)
+    w = tumble.World(b.build(), dt=1 / 480)
+    worst = 0.0
+    for _ in range(96):
+        w.step(5)
+        worst = max(worst, np.abs(w.joint_q[0]).max())
+    assert 0.25 < worst < 0.32
+
+
+def test_oriented_ball_frame_sets_the_coordinate_axes():
+    """A ball joint with axis = y: a swing about world y is coordinate 0, the others stay 0."""
+    b = tumble.ModelBuilder()
+    b.add_body("bob", pos=(0, 0, -1), mass=1.0, inertia=(0.01, 0.01, 0.01), vel=(0.5, 0, 0))
+    b.add_joint("j", "ball", None, "bob", anchor=(0, 0, 0), axis=(0, 1, 0), axis2=(0, 0, 1))
+    w = tumble.World(b.build(), dt=1 / 480)
+    w.step(48)
+    q = w.joint_q[0]
+    assert q[0] < -0.01 and abs(q[1]) < 1e-9 and abs(q[2]) < 1e-9
