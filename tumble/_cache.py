@@ -2,8 +2,9 @@
 
 Numba keys a cached kernel on the file that defines it, not on the files of the kernels
 it inlines, so editing ``integrate.py`` would leave ``step.py``'s cached step running
-the old code. On import we fingerprint every source file of the package and drop all
-cached kernels when the fingerprint changed (an upgrade or an edit).
+the old code. On import we fingerprint every source file of the package that uses Numba
+and drop all cached kernels when the fingerprint changed (an upgrade or an edit); editing
+a pure-Python file (a loader, the viewer) keeps the compiled kernels.
 """
 import hashlib
 import os
@@ -15,6 +16,8 @@ _STAMP = "tumble-sources.stamp"
 def _fingerprint(root):
     h = hashlib.sha256()
     for path in sorted(root.rglob("*.py")):
+        if b"numba" not in path.read_bytes():
+            continue
         st = path.stat()
         h.update(f"{path.relative_to(root)}:{st.st_size}:{st.st_mtime_ns}\n".encode())
     return h.hexdigest()
