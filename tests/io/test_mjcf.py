@@ -472,8 +472,11 @@ def test_actuator_kinds_and_ranges():
     assert _add_actuators(rec, report.actuators)
     assert [c["name"] for c in rec.actuators] == ["m", "p", "g", "gm"]
     assert rec.actuators[1]["dof"] == 0
-    assert _add_actuators(tumble.ModelBuilder(), report.actuators) is hasattr(
-        tumble.ModelBuilder, "add_actuator")
+    model = b.build()                      # the loader already gave them to its builder
+    assert model.actuator_names == ["m", "p", "g", "gm"]
+    assert model.actuator_kind_names == ["motor", "position", "position", "motor"]
+    assert np.allclose(model.actuator_gear, [5.0, 1.0, 1.0, 14.0])
+    assert np.allclose(model.actuator_forcerange[1], [-10, 10])
 
 
 # ----------------------------------------------------------- other features
@@ -597,7 +600,7 @@ def test_unsupported_elements_are_named_in_one_warning():
     assert len(record) == 1 and record[0].category is TumbleWarning
     msg = str(record[0].message)
     for item in ("<tendon> (at line 12)", "<sensor>", "<equality>", "joint armature",
-                 "joint stiffness", "geom condim", "option integrator", "<light>", "<site>"):
+                 "geom condim", "option integrator", "<light>", "<site>"):
         assert item in msg, item
 
 
@@ -660,3 +663,51 @@ def test_malformed_file_names_the_file(tmp_path):
         load_mjcf(path)
     with pytest.raises(ModelError, match="cannot read"):
         load_mjcf(tmp_path / "missing.xml")
+
+
+# --------------------------------------------------------------- springs, actuation
+SPRING_XML = """<mujoco><option gravity="0 0 0" timestep="0.0005"/>
+  <worldbody><body name="rod" pos="0 0 1">
+    <joint name="h" type="hinge" axis="0 1 0" stiffness="{k}"/>
+    <inertial pos="0.5 0 0" mass="1" diaginertia="0.01 0.01 0.01"/>
+  </body></worldbody>
+  <actuator><motor name="m" joint="h" gear="2" ctrlrange="-1 1" ctrllimited="true"/>
+            <position name="p" joint="h" kp="50" kv="5"/></actuator></mujoco>"""
+
+
+def test_joint_stiffness_is_a_spring_with_the_analytic_period():
+    k = 4.0
+    inertia = 0.01 + 1.0 * 0.5 ** 2
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", TumbleWarning)
+        model = load_mjcf(SPRING_XML.format(k=k).replace(
+            '<actuator><motor name="m" joint="h" gear="2" ctrlrange="-1 1" ctrllimited="true"/>'
+            '\n            <position name="p" joint="h" kp="50" kv="5"/></actuator>', ""))
+    assert model.joint_kp[0] == k
+    world = tumble.World(model)
+    world.body_angvel[0] = (0, 0.05, 0)                 # a small kick about the axis
+    world.body_vel[0] = np.cross(world.body_angvel[0], world.body_pos[0] - (0, 0, 1))
+    period = 2 * math.pi * math.sqrt(inertia / k)
+    crossings, last = [], world.joint_q[0, 0]
+    while world.time < 2.2 * period:
+        world.step()
+        q = world.joint_q[0, 0]
+        if last < 0 <= q:
+            crossings.append(world.time)
+        last = q
+    assert len(crossings) >= 2
+    assert crossings[1] - crossings[0] == pytest.approx(period, rel=2e-3)
+
+
+def test_mjcf_actuators_drive_the_joint_through_ctrl():
+    model = load_mjcf(SPRING_XML.format(k=0))
+    assert model.actuator_names == ["m", "p"]
+    assert model.actuator_kind_names == ["motor", "position"]
+    assert not model.actuator_folded[1]          # two actuators on one joint: explicit
+    world = tumble.World(model)
+    world.ctrl[:] = (0.5, 0.0)                   # motor torque 1 N m; position off at ctrl 0
+    world.ctrl[1] = 0.0
+    world.step(200)
+    # the position actuator pulls back toward 0 with kp 50: the motor's 1 N m holds 0.02 rad
+    world.step(20000)
+    assert world.joint_q[0, 0] == pytest.approx(1.0 / 50.0, abs=1e-4)

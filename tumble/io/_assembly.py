@@ -71,6 +71,7 @@ class JointSpec:
     anchor, axis : world frame, initial pose (m; unit vector). limit : (lower, upper) in
     rad or m relative to the initial pose, or None; for a ball a box on each rotation-
     vector coordinate. damping : N m s/rad or N s/m. friction : dry friction, N m or N.
+    stiffness : spring toward the initial pose, N m/rad or N/m (the joint's PD servo).
     """
     name: str
     type: str
@@ -79,6 +80,7 @@ class JointSpec:
     limit: object = None
     damping: float = 0.0
     friction: float = 0.0
+    stiffness: float = 0.0
     where: str = ""
 
 
@@ -177,6 +179,7 @@ class _Segment:
     limit: object = None
     damping: float = 0.0
     friction: float = 0.0
+    stiffness: float = 0.0
     members: list = field(default_factory=list)
     where: str = ""
 
@@ -222,6 +225,7 @@ def _merge_hinges(link, joints):
     seg = _Segment(name=name, type="universal" if n == 2 else "ball", anchor=a0.copy(),
                    axis=signs[0] * axes[0], axis2=signs[1] * axes[1], limit=box,
                    damping=float(np.mean(dampings)), friction=float(np.mean(frictions)),
+                   stiffness=float(np.mean([j.stiffness for j in joints])),
                    members=[(j.name, d, signs[d]) for d, j in enumerate(joints)],
                    where=joints[0].where)
     kind = "universal joint" if n == 2 else "ball joint (frame = the hinge axes)"
@@ -243,7 +247,7 @@ def _single(j):
     return _Segment(name=j.name, type=kind, anchor=j.anchor.copy(),
                     axis=None if kind == "ball" else j.axis / np.linalg.norm(j.axis),
                     limit=j.limit, damping=j.damping, friction=j.friction,
-                    members=[(j.name, 0, 1.0)],
+                    stiffness=j.stiffness, members=[(j.name, 0, 1.0)],
                     where=j.where)
 
 
@@ -387,6 +391,10 @@ def _assemble(builder, links, report, merge_hinges, collide_with_world, world_ge
         for k, seg in enumerate(segs):
             kw = dict(limit=seg.limit, damping=seg.damping, friction=seg.friction,
                       collide=collide_with_world or chain[k] is not None)
+            if seg.stiffness > 0.0:
+                # a passive spring toward the initial pose: the joint's servo, whose
+                # default target is the built pose; its damping stays in the damping rows
+                kw["kp"] = seg.stiffness
             if seg.type == "slider":
                 # a slider's anchor only sets lever arms; the child's COM keeps it near
                 anchor = body_pose[i][0]

@@ -15,7 +15,8 @@ What is read
   points with the exact ellipsoid mass; mesh -> the convex hull of an STL or OBJ file's
   vertices or of inline ``vertex`` data), ``density``/``mass``, ``friction`` (sliding
   coefficient), ``contype``/``conaffinity``, ``margin``; joints ``hinge``, ``slide``,
-  ``ball``, ``free`` (and ``<freejoint>``) with ``range``/``limited``, ``ref``, ``damping``,
+  ``ball``, ``free`` (and ``<freejoint>``) with ``range``/``limited``, ``ref``, ``stiffness`` (a
+  spring toward the initial pose, run as the joint's implicit PD servo), ``damping``,
   ``frictionloss``. Planes are infinite (their MJCF size only sets how they are drawn).
 * ``<contact><exclude body1 body2>``.
 * ``<actuator>``: ``motor``, ``position`` and the ``general`` actuators equivalent to them,
@@ -29,7 +30,7 @@ initial pose is the model pose (MuJoCo's ``qpos0``), and joint limits are re-exp
 relative to it (``range - ref``).
 
 Everything the loader reads but does not simulate - elements (tendons, sensors,
-equality constraints, ...), physics attributes (armature, stiffness, condim, solref,
+equality constraints, ...), physics attributes (armature, springref, condim, solref,
 ...), and visual-only elements (lights, cameras, textures) - is named in ONE
 ``TumbleWarning`` per load, together with every merge. Purely cosmetic attributes
 (``rgba``, ``material``, ``group``, ``user``) are skipped silently.
@@ -62,7 +63,7 @@ _USED = {
     "geom": {"name", "type", "size", "fromto", "contype", "conaffinity", "friction", "mass",
              "density", "margin", "mesh"} | _FRAME_ATTRS,
     "joint": {"name", "type", "pos", "axis", "range", "limited", "damping", "frictionloss",
-              "ref"},
+              "ref", "stiffness"},
     "freejoint": {"name"},
     "inertial": {"mass", "diaginertia", "fullinertia"} | _FRAME_ATTRS,
     "motor": {"name", "joint", "jointinparent", "gear", "ctrlrange", "forcerange",
@@ -73,7 +74,7 @@ _USED = {
 _USED["position"] = _USED["motor"] | {"kp", "kv"}
 _USED["general"] = _USED["motor"] | {"gaintype", "biastype", "gainprm", "biasprm", "dyntype"}
 # Unsupported attributes whose value here means "off": not worth a mention.
-_OFF = {("joint", "stiffness"): "0", ("joint", "armature"): "0", ("joint", "springref"): "0",
+_OFF = {("joint", "armature"): "0", ("joint", "springref"): "0",
         ("joint", "margin"): "0", ("geom", "condim"): "3", ("geom", "priority"): "0",
         ("geom", "gap"): "0", ("body", "gravcomp"): "0", ("geom", "solmix"): "1",
         ("freejoint", "align"): "auto"}
@@ -733,6 +734,7 @@ class _MJCF:
         spec_link.joints.append(JointSpec(
             name=name, type=jtype, anchor=anchor, axis=axis_w, limit=limit,
             damping=a.nonneg("damping", 0.0), friction=a.nonneg("frictionloss", 0.0),
+            stiffness=a.nonneg("stiffness", 0.0) if jtype != "free" else 0.0,
             where=node.where()))
         self.joint_nodes[name] = (node, ref)
 
