@@ -5,6 +5,9 @@ The public API (see the README and DESIGN notes):
     ModelBuilder, Model   build and validate a model
     World, State          step it and read or set its state
     load_bvh, Motion      motion capture in (and save_bvh out)
+    ragdoll_from_motion, games105_ragdoll, build_ragdoll, Ragdoll, Skeleton,
+    load_character_model  ragdolls from skeletons (tumble.character)
+    set_pose, get_pose, joint_targets, Pose   motion frames <-> world poses
     ModelError, StateError, SimulationError, TumbleError
 """
 from ._cache import invalidate_stale_kernels
@@ -15,6 +18,8 @@ from .errors import ModelError, SimulationError, StateError, TumbleError
 from .io import Motion, load_bvh, load_bvh_string, save_bvh
 from .model import Model, ModelBuilder
 from .world import State, World
+from .character import (Pose, Ragdoll, Skeleton, build_ragdoll, games105_ragdoll, get_pose,
+                        joint_targets, load_character_model, ragdoll_from_motion, set_pose)
 
 __version__ = "0.1.0"
 
@@ -22,4 +27,6 @@ del invalidate_stale_kernels
 
 __all__ = ["ModelBuilder", "Model", "World", "State", "Motion", "load_bvh", "load_bvh_string",
            "save_bvh",
+           "Skeleton", "Ragdoll", "build_ragdoll", "ragdoll_from_motion", "games105_ragdoll",
+           "load_character_model", "Pose", "set_pose", "get_pose", "joint_targets",
            "TumbleError", "ModelError", "StateError", "SimulationError", "__version__"]
