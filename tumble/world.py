@@ -421,8 +421,10 @@ class World:
             raise StateError(f"load_state: {name} has format version "
                              f"{int(data['format_version'])}, this tumble reads "
                              f"{_STATE_FILE_VERSION}")
-        for what, saved, mine in (("bodies", list(data["body_names"]), self.model.body_names),
-                                  ("joints", list(data["joint_names"]), self.model.joint_names)):
+        for what, saved, mine in (("bodies", [str(n) for n in data["body_names"]],
+                                   self.model.body_names),
+                                  ("joints", [str(n) for n in data["joint_names"]],
+                                   self.model.joint_names)):
             if saved != list(mine):
                 raise StateError(f"load_state: {name} belongs to a model with {len(saved)} "
                                  f"{what} {_names_preview(saved)}; this world's model has "

@@ -8,6 +8,7 @@ motion's units), world frame; ``up`` is the unit vector pointing up (Y for BVH f
 :func:`load_character_model` reads the GAMES-105 ``character_model.npy``; the copy shipped
 with tumble is at :func:`games105_character_path`.
 """
+import pickle
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -195,7 +196,7 @@ def load_character_model(path=None):
         source = p.name
         try:
             raw = np.load(p, allow_pickle=True)
-        except (ValueError, OSError) as exc:
+        except (ValueError, OSError, EOFError, pickle.UnpicklingError) as exc:
             if isinstance(exc, FileNotFoundError):
                 raise
             raise ModelError(f"{source}: not a NumPy .npy file ({exc})") from None
