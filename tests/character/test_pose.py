@@ -9,6 +9,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 import tumble
@@ -215,3 +217,19 @@ def test_errors(world, floating, walk):
     other = tumble.World(b.build())
     with pytest.raises(tumble.ModelError, match="lacks a ragdoll body"):
         set_pose(other, floating, walk, 0)
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), frame=st.integers(0, 2))
+def test_round_trip_any_rotations(world, floating, walk, seed, frame):
+    """Random joint rotations and root positions survive world and back to round-off."""
+    rng = np.random.default_rng(seed)
+    rot = rng.normal(size=(3, walk.num_joints, 4))
+    motion = tumble.Motion.from_arrays(walk.joint_names, walk.parents, walk.offsets, rot,
+                                       frame_time=1 / 60,
+                                       root_positions=rng.uniform(-5, 5, size=(3, 3)))
+    set_pose(world, floating, motion, frame)
+    pose = get_pose(world, floating, motion)
+    body = [motion.index(n) for n in floating.body_names]     # end sites have no rotation
+    assert quat_err(pose.local_rotations[body], motion.local_rotations[frame, body]) < 1e-12
+    np.testing.assert_allclose(pose.root_position, motion.root_positions[frame], atol=1e-12)
