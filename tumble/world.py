@@ -387,7 +387,8 @@ class World:
 
         path : file name (``.npz`` is appended when missing) or a binary file object. The
         file also records the model's body and joint names, row count and the batch size,
-        which ``load_state`` checks.
+        which ``load_state`` checks. World options (dt, solver, contact model) are not part
+        of the state: load into a world made with the same ones to continue bit for bit.
         """
         st = self.get_state()
         data = dict(format_version=np.int64(_STATE_FILE_VERSION), time=np.float64(st.time),

@@ -23,12 +23,20 @@ def qconj(q):
     return np.asarray(q, float) * np.array([-1.0, -1.0, -1.0, 1.0])
 
 
+def _cross(a, b):
+    """a x b over leading axes, written out (np.cross is slow on small arrays)."""
+    return np.stack((a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1],
+                     a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2],
+                     a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]), axis=-1)
+
+
 def qrot(q, v):
     """Rotate vectors ``v`` (..., 3) by unit quaternions ``q`` (..., 4)."""
     q = np.asarray(q, float)
+    v = np.asarray(v, float)
     u, w = q[..., :3], q[..., 3:]
-    t = 2.0 * np.cross(u, v)
-    return v + w * t + np.cross(u, t)
+    t = 2.0 * _cross(u, v)
+    return v + w * t + _cross(u, t)
 
 
 def qrotvec(q):

@@ -116,6 +116,12 @@ def rest_alignment(ragdoll, motion, tol=ALIGN_TOL):
     where = "rest_alignment"
     _check_ragdoll(ragdoll, where)
     _check_motion(motion, where)
+    # Cached per rest skeleton: set_pose and joint_targets ask for it on every call.
+    key = (tuple(motion.joint_names), motion.parents.tobytes(), motion.offsets.tobytes(),
+           float(tol))
+    cache = ragdoll._alignment_cache
+    if key in cache:
+        return cache[key].copy()
     sk = ragdoll.skeleton
     idx = _motion_index(ragdoll, motion, where)
     mrest = Skeleton.from_motion(motion).rest_positions
@@ -131,6 +137,9 @@ def rest_alignment(ragdoll, motion, tol=ALIGN_TOL):
             continue
         g = _fit_rotation(u[ok], v[ok])
         out[j] = Q.IDENTITY if Q.qangle(g) < tol else g
+    if len(cache) >= 16:
+        cache.clear()
+    cache[key] = out.copy()
     return out
 
 
@@ -320,7 +329,8 @@ def joint_targets(ragdoll, motion, frame=None):
     j with joint frame ``F_j`` (world frame at build: identity for ball joints, x along the
     axis for hinges), the value is ``F_j^-1 Q_parent^-1 Q_j F_j``: the motion's local
     rotation seen in the joint frame, rest alignment applied. A PD controller drives
-    ``world.joint_quat`` towards it. Joints of the model that are not ragdoll joints keep
+    ``world.joint_quat`` towards it. One call for all frames costs about as much as one
+    call for one frame (a few ms for the course character): precompute them. Joints of the model that are not ragdoll joints keep
     the identity.
     """
     where = "joint_targets"

@@ -63,6 +63,7 @@ class Ragdoll:
         self.skeleton = skeleton
         self.root = root
         self.world_options = dict(world_options)
+        self._alignment_cache = {}          # rest alignments by motion rest skeleton (pose.py)
         names = skeleton.joint_names
         self.body_joints = np.array([skeleton.index(n) for n in body_joints], dtype=np.int64)
         self.body_of = {n: n for n in body_joints}
