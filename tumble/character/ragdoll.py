@@ -25,7 +25,6 @@ import numpy as np
 from ..errors import ModelError
 from ..io.bvh import Motion
 from ..model.builder import ModelBuilder
-from ..model.model import Model
 from . import _quat as Q
 from .skeleton import CharacterModel, Skeleton, load_character_model
 
