@@ -156,3 +156,90 @@ def test_queries():
     np.testing.assert_allclose(w.linear_momentum(), [7.0, 0, 0])
     L = w.angular_momentum(about=(0, 0, 0))
     np.testing.assert_allclose(L, [0.1, 0.24, 0.42] + np.cross([0, 0.1, 0.7], [7.0, 0, 0]))
+
+
+# ------------------------------------------------------------- state: exact save and restore
+
+def ragdoll_world(**kwargs):
+    """The GAMES-105 ragdoll standing on its feet in frame 0 of the walk: joints and contacts."""
+    from pathlib import Path
+    rd = tumble.games105_ragdoll("floating")
+    walk = tumble.load_bvh(Path(__file__).resolve().parent / "data" / "games105" / "walk_forward.bvh")
+    w = rd.make_world(**kwargs)
+    tumble.set_pose(w, rd, walk, 0)
+    return w
+
+
+def full_snapshot(w):
+    s = w._state
+    c = w.contacts
+    return [a.copy() for a in s] + [w.time] + [np.asarray(x).copy() for x in c.__dict__.values()]
+
+
+@pytest.mark.parametrize("contact", ["lcp", "pgs"])
+def test_save_and_load_state_is_bit_exact(tmp_path, contact):
+    w = ragdoll_world(contact=contact)
+    w.step(100)
+    assert len(w.contacts) > 0 and np.any(w._state.row_impulse != 0)
+    w.joint_motor_target[0] = 0.0
+    w.save_state(tmp_path / "a.npz")
+    w.step(100)
+    x = full_snapshot(w)
+    w.load_state(tmp_path / "a.npz")
+    w.step(100)
+    assert_same(full_snapshot(w), x)
+    # a fresh world of the same model, with the suffix left to load_state
+    fresh = tumble.World(w.model, **{k: getattr(w, k) for k in ("dt", "contact", "contact_erp",
+                                                                 "contact_cfm")})
+    fresh.load_state(tmp_path / "a")
+    fresh.step(100)
+    assert_same(full_snapshot(fresh), x)
+
+
+def test_get_and_set_state_keep_impulses_and_contacts():
+    w = ragdoll_world(contact="pgs", iterations=20)
+    w.step(50)
+    saved = w.get_state()
+    w.step(30)
+    x = full_snapshot(w)
+    w.step(40)
+    w.set_state(saved)
+    w.step(30)
+    assert_same(full_snapshot(w), x)
+    # a hand-made State (bodies only) starts from no impulses and no contacts
+    bare = tumble.State(saved.time, saved.body_pos, saved.body_quat, saved.body_vel,
+                        saved.body_angvel)
+    w.set_state(bare)
+    assert len(w.contacts) == 0 and not w._state.row_impulse.any()
+    w.step(30)
+    assert not np.array_equal(w.body_pos, x[0][0])      # PGS without its warm start differs
+
+
+def test_load_state_refuses_other_models_and_files(tmp_path):
+    w = two_bodies()
+    w.step(3)
+    w.save_state(tmp_path / "two.npz")
+    b = tumble.ModelBuilder()
+    b.add_body("pelvis", pos=(0, 0, 1), mass=8.0, inertia=(0.1, 0.12, 0.14))
+    b.add_body("shin", pos=(0, 0.1, 0.7), mass=7.0, inertia=(0.05, 0.05, 0.01))
+    other = tumble.World(b.build())
+    before = snapshot(other)
+    with pytest.raises(tumble.StateError, match=r"two.npz belongs to a model with 2 bodies "
+                                                r"\['pelvis', 'thigh'\]; .* \['pelvis', 'shin'\]"):
+        other.load_state(tmp_path / "two.npz")
+    assert_same(snapshot(other), before)
+    with pytest.raises(tumble.StateError, match="holds 1 worlds, this world has nworld=2"):
+        two_bodies(nworld=2).load_state(tmp_path / "two.npz")
+    np.savez(tmp_path / "plain.npz", x=np.zeros(3))
+    with pytest.raises(tumble.StateError, match="plain.npz is not a tumble state file"):
+        w.load_state(tmp_path / "plain.npz")
+    (tmp_path / "junk.npz").write_text("not a zip")
+    with pytest.raises(tumble.StateError, match="junk.npz is not a tumble state file"):
+        w.load_state(tmp_path / "junk.npz")
+    with pytest.raises(FileNotFoundError):
+        w.load_state(tmp_path / "missing.npz")
+    bad = dict(np.load(tmp_path / "two.npz"))
+    bad["body_vel"] = np.full_like(bad["body_vel"], np.nan)
+    np.savez(tmp_path / "nan.npz", **bad)
+    with pytest.raises(tumble.StateError, match="nan.npz: set_state: body_vel is not finite"):
+        w.load_state(tmp_path / "nan.npz")

@@ -6,6 +6,10 @@ The public API (see the README and DESIGN notes):
     World, State          step it and read or set its state
     load_bvh, Motion      motion capture in (and save_bvh out)
     load_mjcf, load_urdf  MuJoCo MJCF and URDF model files in
+    ragdoll_from_motion, games105_ragdoll, build_ragdoll, Ragdoll, Skeleton,
+    load_character_model  ragdolls from skeletons (tumble.character)
+    set_pose, get_pose, joint_targets, Pose   motion frames <-> world poses
+    PDController, HandOfGod, StaticBalance, MotionTracker   character control
     ModelError, StateError, SimulationError, TumbleError
 """
 from ._cache import invalidate_stale_kernels
@@ -16,6 +20,9 @@ from .errors import ModelError, SimulationError, StateError, TumbleError
 from .io import Motion, load_bvh, load_bvh_string, load_mjcf, load_urdf, save_bvh
 from .model import Model, ModelBuilder
 from .world import State, World
+from .character import (HandOfGod, MotionTracker, PDController, Pose, Ragdoll, Skeleton,
+                        StaticBalance, build_ragdoll, games105_ragdoll, get_pose,
+                        joint_targets, load_character_model, ragdoll_from_motion, set_pose)
 
 __version__ = "0.1.0"
 
@@ -23,4 +30,7 @@ del invalidate_stale_kernels
 
 __all__ = ["ModelBuilder", "Model", "World", "State", "Motion", "load_bvh", "load_bvh_string",
            "save_bvh", "load_mjcf", "load_urdf",
+           "Skeleton", "Ragdoll", "build_ragdoll", "ragdoll_from_motion", "games105_ragdoll",
+           "load_character_model", "Pose", "set_pose", "get_pose", "joint_targets",
+           "PDController", "HandOfGod", "StaticBalance", "MotionTracker",
            "TumbleError", "ModelError", "StateError", "SimulationError", "__version__"]

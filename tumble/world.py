@@ -1,5 +1,7 @@
 """World: the state of one model (or a batch of copies) and the calls that step and query it."""
+import os
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -8,7 +10,7 @@ from .math.quat import quat_rotate, quat_rotate_inv
 from .model.model import DYNAMIC, KINEMATIC, STATIC, Model
 from .model.validate import positive
 from .pipeline import step as pipeline_step
-from .pipeline.contacts.arrays import make_contacts
+from .pipeline.contacts.arrays import ContactArrays, make_contacts
 from .pipeline.contacts.penalty import default_penalty
 from .pipeline.queries import distance_between, raycast_scene
 from .pipeline.actuators import PD_MODES
@@ -46,6 +48,19 @@ class Contacts:
         return len(self.depth)
 
 
+def _npz_path(path):
+    """``path`` with ``.npz`` appended to file names that lack it (np.savez's own rule)."""
+    if isinstance(path, (str, os.PathLike)):
+        path = Path(path)
+        return path if path.suffix == ".npz" else path.with_name(path.name + ".npz")
+    return path
+
+
+def _names_preview(names, count=6):
+    names = list(names)
+    return str(names) if len(names) <= count else str(names[:count])[:-1] + ", ...]"
+
+
 def _tangents(normal):
     """The tangents ``contacts.rows.tangents`` picks, vectorised over (n, 3) normals."""
     n = normal
@@ -62,12 +77,49 @@ class State:
 
     Arrays have a leading world axis: body_pos (nworld, nbody, 3), body_quat
     (nworld, nbody, 4), body_vel and body_angvel (nworld, nbody, 3); time in s.
+    The rest is what makes a restored world step on bit for bit as the saved one would
+    (None when not known, e.g. a State written by hand: ``set_state`` then starts from
+    zero impulses, no contacts, no motor targets and no pending forces):
+    row_impulse (nworld, nrow) last step's joint row impulses, N s (solver warm start);
+    motor_target (nworld, njoint, 3); applied_force, applied_torque (nworld, nbody, 3)
+    pending for the next step; joint_force, joint_torque (nworld, njoint, 3) of the last
+    step; contact_count (nworld,) and contacts (a ``ContactArrays`` of (nworld, n, ...)
+    arrays, n = the largest count) of the last step, whose impulses warm start the next;
+    the joint servos and actuators: pd_kp, pd_kd, pd_max (nworld, njoint), pd_target_quat
+    (nworld, njoint, 4), pd_target_q, pd_target_qd, joint_applied (nworld, njoint, 3), ctrl
+    (nworld, nactuator) (left as the world has them when None).
     """
     time: float
     body_pos: np.ndarray
     body_quat: np.ndarray
     body_vel: np.ndarray
     body_angvel: np.ndarray
+    row_impulse: np.ndarray = None
+    motor_target: np.ndarray = None
+    applied_force: np.ndarray = None
+    applied_torque: np.ndarray = None
+    joint_force: np.ndarray = None
+    joint_torque: np.ndarray = None
+    pd_kp: np.ndarray = None
+    pd_kd: np.ndarray = None
+    pd_max: np.ndarray = None
+    pd_target_quat: np.ndarray = None
+    pd_target_q: np.ndarray = None
+    pd_target_qd: np.ndarray = None
+    joint_applied: np.ndarray = None
+    ctrl: np.ndarray = None
+    contact_count: np.ndarray = None
+    contacts: ContactArrays = None
+
+
+# Fields of State past the body state, each a copy of the StateArrays field of that name.
+_EXTRA_STATE = ("row_impulse", "motor_target", "applied_force", "applied_torque",
+                "joint_force", "joint_torque", "pd_kp", "pd_kd", "pd_max", "pd_target_quat",
+                "pd_target_q", "pd_target_qd", "joint_applied", "ctrl")
+# Actuator fields: left as they are when a State does not carry them.
+_DRIVE_STATE = ("pd_kp", "pd_kd", "pd_max", "pd_target_quat", "pd_target_q", "pd_target_qd",
+                "joint_applied", "ctrl")
+_STATE_FILE_VERSION = 2
 
 
 class World:
@@ -241,6 +293,11 @@ class World:
         s.pd_target_quat[:] = s.joint_qrel
         s.pd_target_q[:] = s.joint_q
 
+    def update_joint_coordinates(self):
+        """Recompute ``joint_q``, ``joint_qd`` and ``joint_quat`` from the body state, after
+        writing ``body_pos`` etc. directly (stepping and ``set_state`` do it themselves)."""
+        self._update_joint_coordinates()
+
     def _update_joint_coordinates(self):
         from .pipeline.joints.rows import joint_coordinates
         s = self._state
@@ -297,21 +354,36 @@ class World:
         self._view(target)[...] = v
 
     def get_state(self):
-        """A copy of the state (time, poses, velocities) to restore later with ``set_state``."""
+        """A copy of the whole state, to restore later with ``set_state``: time, poses,
+        velocities, and the solver's memory (impulses, contacts), motor targets and pending
+        forces, so the restored world steps on bit for bit as this one would."""
         s = self._state
+        n = int(s.contact_count.max(initial=0))
+        contacts = ContactArrays(*(a[:, :n].copy() for a in self._contacts))
         return State(self.time, s.body_pos.copy(), s.body_quat.copy(), s.body_vel.copy(),
-                     s.body_angvel.copy())
+                     s.body_angvel.copy(), contact_count=s.contact_count.copy(),
+                     contacts=contacts, **{f: getattr(s, f).copy() for f in _EXTRA_STATE})
 
     def set_state(self, state):
-        """Restore a ``State`` from ``get_state`` (validated; nothing changes if refused)."""
+        """Restore a ``State`` from ``get_state`` (validated; nothing changes if refused).
+
+        Fields left None are reset: zero impulses, forces and motor targets, no contacts."""
         s = self._state
         arrays = {}
-        for field in ("body_pos", "body_quat", "body_vel", "body_angvel"):
-            a = np.asarray(getattr(state, field), dtype=float)
+        for field in ("body_pos", "body_quat", "body_vel", "body_angvel") + _EXTRA_STATE:
+            value = getattr(state, field, None)
+            if value is None:
+                if field.startswith("body"):
+                    raise StateError(f"set_state: {field} is missing")
+                if field not in _DRIVE_STATE:
+                    arrays[field] = np.zeros_like(getattr(s, field))
+                continue
+            a = np.asarray(value, dtype=float)
             if a.shape != getattr(s, field).shape:
                 raise StateError(f"set_state: {field} has shape {a.shape}, this world needs "
                                  f"{getattr(s, field).shape}")
-            if not np.all(np.isfinite(a)):
+            # an unbounded servo torque is +inf; nothing else may be infinite
+            if not np.all(np.isfinite(a) if field != "pd_max" else ~np.isnan(a)):
                 raise StateError(f"set_state: {field} is not finite")
             arrays[field] = a
         if np.any(np.linalg.norm(arrays["body_quat"], axis=-1) < 1e-12):
@@ -319,11 +391,112 @@ class World:
         time = float(state.time)
         if not np.isfinite(time):
             raise StateError("set_state: time is not finite")
+        count, contacts = self._checked_contacts(state)
         for field, a in arrays.items():
             getattr(s, field)[...] = a
         self.time = time
-        s.row_impulse[:] = 0.0
+        if count.max(initial=0) > self._contacts.depth.shape[1]:
+            self._grow_contacts(int(count.max()))
+        n = int(count.max(initial=0))
+        for k, mine in enumerate(self._contacts):
+            mine[...] = 0
+            if n:
+                mine[:, :n] = contacts[k][:, :n]
+        s.contact_count[:] = count
         self._update_joint_coordinates()
+
+    def _checked_contacts(self, state):
+        """(contact_count (nworld,), contacts or None) of ``state``, validated."""
+        nw = self.nworld
+        if state.contact_count is None and state.contacts is None:
+            return np.zeros(nw, np.int64), None
+        if state.contact_count is None or state.contacts is None:
+            raise StateError("set_state: contact_count and contacts go together")
+        count = np.asarray(state.contact_count)
+        if count.shape != (nw,) or not np.issubdtype(count.dtype, np.integer) or \
+                np.any(count < 0):
+            raise StateError(f"set_state: contact_count must be {nw} integers >= 0")
+        if not isinstance(state.contacts, ContactArrays):
+            raise StateError("set_state: contacts must be a ContactArrays")
+        n = int(count.max(initial=0))
+        out = []
+        for field, mine, saved in zip(ContactArrays._fields, self._contacts, state.contacts):
+            a = np.asarray(saved)
+            shape = (nw, a.shape[1] if a.ndim > 1 else -1) + mine.shape[2:]
+            if a.ndim != mine.ndim or a.shape != shape or a.shape[1] < n:
+                raise StateError(f"set_state: contacts.{field} has shape {a.shape}, expected "
+                                 f"({nw}, >= {n}){''.join(f', {d}' for d in mine.shape[2:])}")
+            if a.dtype.kind == "f" and not np.all(np.isfinite(a)):
+                raise StateError(f"set_state: contacts.{field} is not finite")
+            out.append(a.astype(mine.dtype, copy=False))
+        return count.astype(np.int64), ContactArrays(*out)
+
+    def save_state(self, path):
+        """Write ``get_state()`` to an ``.npz`` file (bit-exact; see ``load_state``).
+
+        path : file name (``.npz`` is appended when missing) or a binary file object. The
+        file also records the model's body and joint names, row count and the batch size,
+        which ``load_state`` checks. World options (dt, solver, contact model) are not part
+        of the state: load into a world made with the same ones to continue bit for bit.
+        """
+        st = self.get_state()
+        data = dict(format_version=np.int64(_STATE_FILE_VERSION), time=np.float64(st.time),
+                    body_names=np.array(self.model.body_names, dtype=str),
+                    joint_names=np.array(self.model.joint_names, dtype=str),
+                    nrow=np.int64(self.model.nrow), nworld=np.int64(self.nworld),
+                    contact_count=st.contact_count,
+                    **{f: getattr(st, f) for f in ("body_pos", "body_quat", "body_vel",
+                                                   "body_angvel") + _EXTRA_STATE},
+                    **{"contact_" + f: a for f, a in zip(ContactArrays._fields, st.contacts)})
+        np.savez(_npz_path(path), **data)
+
+    def load_state(self, path):
+        """Restore a state written by ``save_state`` (bit-exact; nothing changes if refused).
+
+        Raises StateError naming the file when it was saved from a model with other bodies
+        or joints (names, count or order), another number of worlds, or is not a state file.
+        """
+        path = _npz_path(path)
+        name = getattr(path, "name", path)
+        try:
+            with np.load(path, allow_pickle=False) as f:
+                data = {k: f[k] for k in f.files}
+        except (OSError, ValueError) as exc:
+            if isinstance(exc, FileNotFoundError):
+                raise
+            raise StateError(f"load_state: {name} is not a tumble state file ({exc})") from None
+        if "format_version" not in data or "body_names" not in data:
+            raise StateError(f"load_state: {name} is not a tumble state file")
+        if int(data["format_version"]) != _STATE_FILE_VERSION:
+            raise StateError(f"load_state: {name} has format version "
+                             f"{int(data['format_version'])}, this tumble reads "
+                             f"{_STATE_FILE_VERSION}")
+        for what, saved, mine in (("bodies", [str(n) for n in data["body_names"]],
+                                   self.model.body_names),
+                                  ("joints", [str(n) for n in data["joint_names"]],
+                                   self.model.joint_names)):
+            if saved != list(mine):
+                raise StateError(f"load_state: {name} belongs to a model with {len(saved)} "
+                                 f"{what} {_names_preview(saved)}; this world's model has "
+                                 f"{len(mine)} {what} {_names_preview(mine)}")
+        if int(data["nrow"]) != self.model.nrow:
+            raise StateError(f"load_state: {name} has {int(data['nrow'])} joint rows, this "
+                             f"model {self.model.nrow} (different joint types)")
+        if int(data["nworld"]) != self.nworld:
+            raise StateError(f"load_state: {name} holds {int(data['nworld'])} worlds, this "
+                             f"world has nworld={self.nworld}")
+        try:
+            contacts = ContactArrays(*(data["contact_" + f] for f in ContactArrays._fields))
+            state = State(float(data["time"]), contact_count=data["contact_count"],
+                          contacts=contacts,
+                          **{f: data[f] for f in ("body_pos", "body_quat", "body_vel",
+                                                  "body_angvel") + _EXTRA_STATE})
+        except KeyError as exc:
+            raise StateError(f"load_state: {name} lacks the field {exc}") from None
+        try:
+            self.set_state(state)
+        except StateError as exc:
+            raise StateError(f"load_state: {name}: {exc}") from None
 
     # ------------------------------------------------------------------- step
     def step(self, n=1):

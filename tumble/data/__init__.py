@@ -1,0 +1,1 @@
+"""Data files shipped with tumble (see each folder's README and LICENSE)."""
