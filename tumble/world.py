@@ -87,7 +87,9 @@ class State:
     arrays, n = the largest count) of the last step, whose impulses warm start the next;
     the joint servos and actuators: pd_kp, pd_kd, pd_max (nworld, njoint), pd_target_quat
     (nworld, njoint, 4), pd_target_q, pd_target_qd, joint_applied (nworld, njoint, 3), ctrl
-    (nworld, nactuator) (left as the world has them when None).
+    (nworld, nactuator); the body servos: body_servo (nworld, nbody, 4), body_target_pos,
+    body_target_vel, body_target_angvel (nworld, nbody, 3), body_target_quat (nworld, nbody,
+    4) (all left as the world has them when None).
     """
     time: float
     body_pos: np.ndarray
@@ -108,6 +110,11 @@ class State:
     pd_target_qd: np.ndarray = None
     joint_applied: np.ndarray = None
     ctrl: np.ndarray = None
+    body_servo: np.ndarray = None
+    body_target_pos: np.ndarray = None
+    body_target_quat: np.ndarray = None
+    body_target_vel: np.ndarray = None
+    body_target_angvel: np.ndarray = None
     contact_count: np.ndarray = None
     contacts: ContactArrays = None
 
@@ -115,10 +122,12 @@ class State:
 # Fields of State past the body state, each a copy of the StateArrays field of that name.
 _EXTRA_STATE = ("row_impulse", "motor_target", "applied_force", "applied_torque",
                 "joint_force", "joint_torque", "pd_kp", "pd_kd", "pd_max", "pd_target_quat",
-                "pd_target_q", "pd_target_qd", "joint_applied", "ctrl")
+                "pd_target_q", "pd_target_qd", "joint_applied", "ctrl", "body_servo",
+                "body_target_pos", "body_target_quat", "body_target_vel", "body_target_angvel")
 # Actuator fields: left as they are when a State does not carry them.
 _DRIVE_STATE = ("pd_kp", "pd_kd", "pd_max", "pd_target_quat", "pd_target_q", "pd_target_qd",
-                "joint_applied", "ctrl")
+                "joint_applied", "ctrl", "body_servo", "body_target_pos", "body_target_quat",
+                "body_target_vel", "body_target_angvel")
 _STATE_FILE_VERSION = 2
 
 
@@ -237,7 +246,9 @@ class World:
             pd_kp=np.zeros((nw, nj)), pd_kd=np.zeros((nw, nj)), pd_max=np.zeros((nw, nj)),
             pd_target_quat=np.zeros((nw, nj, 4)), pd_target_q=np.zeros((nw, nj, 3)),
             pd_target_qd=np.zeros((nw, nj, 3)), joint_applied=np.zeros((nw, nj, 3)),
-            ctrl=np.zeros((nw, model.nactuator)),
+            ctrl=np.zeros((nw, model.nactuator)), body_servo=np.zeros((nw, nb, 4)),
+            body_target_pos=np.zeros((nw, nb, 3)), body_target_quat=np.zeros((nw, nb, 4)),
+            body_target_vel=np.zeros((nw, nb, 3)), body_target_angvel=np.zeros((nw, nb, 3)),
             joint_q=np.zeros((nw, nj, 3)), joint_qd=np.zeros((nw, nj, 3)),
             joint_qrel=np.zeros((nw, nj, 4)), joint_force=np.zeros((nw, nj, 3)),
             joint_torque=np.zeros((nw, nj, 3)), contact_count=np.zeros(nw, np.int64),
@@ -287,6 +298,11 @@ class World:
         s.pd_target_qd[:] = 0.0
         s.joint_applied[:] = 0.0
         s.ctrl[:] = 0.0
+        s.body_servo[:] = 0.0
+        s.body_target_pos[:] = self.model.body_pos0
+        s.body_target_quat[:] = self.model.body_quat0
+        s.body_target_vel[:] = 0.0
+        s.body_target_angvel[:] = 0.0
         self.time = 0.0
         self._update_joint_coordinates()
         # servos hold the built pose until told otherwise
@@ -547,18 +563,29 @@ class World:
         for field, name in (("motor_target", "joint_motor_target"),
                             ("pd_target_quat", "pd_target_quat"), ("pd_target_q", "pd_target_q"),
                             ("pd_target_qd", "pd_target_qd"), ("joint_applied", "joint torque"),
-                            ("ctrl", "ctrl"), ("pd_kp", "joint_kp"), ("pd_kd", "joint_kd")):
+                            ("ctrl", "ctrl"), ("pd_kp", "joint_kp"), ("pd_kd", "joint_kd"),
+                            ("body_servo", "body servo gain"),
+                            ("body_target_pos", "body_target_pos"),
+                            ("body_target_quat", "body_target_quat"),
+                            ("body_target_vel", "body_target_vel"),
+                            ("body_target_angvel", "body_target_angvel")):
             a = getattr(s, field)
             bad = ~np.isfinite(a)
-            if field in ("pd_kp", "pd_kd"):
+            gain = field in ("pd_kp", "pd_kd", "body_servo")
+            if gain:
                 bad |= a < 0
             if bad.any():
                 idx = np.argwhere(bad)[0]
-                what = (f"joint '{m.joint_names[idx[1]]}'" if field != "ctrl"
-                        else f"actuator '{m.actuator_names[idx[1]]}'")
-                raise StateError(f"{what}: {name} must be finite" + (
-                    " and >= 0" if field in ("pd_kp", "pd_kd") else "")
-                    + f", got {a[tuple(idx)]!r}")
+                what = (f"actuator '{m.actuator_names[idx[1]]}'" if field == "ctrl" else
+                        f"body '{m.body_names[idx[1]]}'" if field.startswith("body")
+                        else f"joint '{m.joint_names[idx[1]]}'")
+                raise StateError(f"{what}: {name} must be finite" + (" and >= 0" if gain else "")
+                                 + f", got {a[tuple(idx)]!r}")
+        tq_norm = np.linalg.norm(s.body_target_quat, axis=-1)
+        if np.any((tq_norm < 1e-12) & (s.body_servo[..., 2:].max(-1) > 0)):
+            b = int(np.argwhere((tq_norm < 1e-12) & (s.body_servo[..., 2:].max(-1) > 0))[0][1])
+            raise StateError(f"body '{m.body_names[b]}': body_target_quat is zero")
+        s.body_target_quat[:] /= np.where(tq_norm > 0, tq_norm, 1.0)[..., None]
         if np.any(np.isnan(s.pd_max) | (s.pd_max <= 0)):
             j = int(np.argwhere(np.isnan(s.pd_max) | (s.pd_max <= 0))[0][1])
             raise StateError(f"joint '{m.joint_names[j]}': max_torque must be > 0")
@@ -729,6 +756,56 @@ class World:
     def joint_applied_torque(self):
         """Live (njoint, 3) torques per DoF applied through the next ``step(n)`` call."""
         return self._view(self._state.joint_applied)
+
+    def set_body_servo(self, body, kp, kd, kp_rot=0.0, kd_rot=0.0, *, world=None):
+        """Switch on (or, with all gains 0, off) the implicit PD servo pulling ``body``'s COM
+        toward ``body_target_pos`` (kp N/m, kd N s/m) and its orientation toward
+        ``body_target_quat`` (kp_rot N m/rad, kd_rot N m s/rad): the hand of god.
+
+        It is an external force (from the world), solved implicitly with the joints and
+        contacts, so it is stable for any gains and step. Targets default to the built pose.
+        """
+        b = self.model.body_index(body)
+        wsl = self._world_slice(world)
+        where = f"body servo of '{self.model.body_names[b]}'"
+        self._state.body_servo[wsl, b] = [positive(v, where, n, allow_zero=True) for v, n in (
+            (kp, "kp"), (kd, "kd"), (kp_rot, "kp_rot"), (kd_rot, "kd_rot"))]
+
+    @property
+    def body_target_pos(self):
+        """Live body servo targets (nbody, 3): COM positions, m, world frame."""
+        return self._view(self._state.body_target_pos)
+
+    @body_target_pos.setter
+    def body_target_pos(self, value):
+        self._assign("body_target_pos", value)
+
+    @property
+    def body_target_quat(self):
+        """Live body servo targets (nbody, 4): orientations as ``body_quat`` (x, y, z, w)."""
+        return self._view(self._state.body_target_quat)
+
+    @body_target_quat.setter
+    def body_target_quat(self, value):
+        self._assign("body_target_quat", value)
+
+    @property
+    def body_target_vel(self):
+        """Live body servo target velocities (nbody, 3), m/s, world frame."""
+        return self._view(self._state.body_target_vel)
+
+    @body_target_vel.setter
+    def body_target_vel(self, value):
+        self._assign("body_target_vel", value)
+
+    @property
+    def body_target_angvel(self):
+        """Live body servo target angular velocities (nbody, 3), rad/s, world frame."""
+        return self._view(self._state.body_target_angvel)
+
+    @body_target_angvel.setter
+    def body_target_angvel(self, value):
+        self._assign("body_target_angvel", value)
 
     @property
     def ctrl(self):

@@ -4,13 +4,13 @@
     Ragdoll, build_ragdoll, ragdoll_from_motion, games105_ragdoll   ragdoll models + mapping
     set_pose, get_pose, joint_targets, rest_alignment, Pose    motion <-> world poses
     PDController, pd_torques, apply_joint_torques             joint PD (in-step or NumPy)
-    HandOfGod, jacobian_transpose_torques, StaticBalance, center_of_mass   root help, balance
+    HandOfGod, jacobian_transpose_torques, StaticBalance, Push, center_of_mass   balance
     MotionTracker, TrackingResult                             tracking motion capture
 """
 from .pose import Pose, get_pose, joint_targets, rest_alignment, set_pose
 from .ragdoll import (GAMES105_BOX_SCALES, Ragdoll, build_ragdoll, games105_ragdoll,
                       ragdoll_from_motion)
-from .balance import (HandOfGod, StaticBalance, center_of_mass, chain_to_root,
+from .balance import (HandOfGod, Push, StaticBalance, center_of_mass, chain_to_root,
                       jacobian_transpose_torques)
 from .pd import PDController, apply_joint_torques, pd_torques, targets_from_quats
 from .tracking import MotionTracker, TrackingResult
@@ -20,5 +20,5 @@ __all__ = ["Skeleton", "CharacterModel", "load_character_model", "games105_chara
            "Ragdoll", "build_ragdoll", "ragdoll_from_motion", "games105_ragdoll",
            "GAMES105_BOX_SCALES", "Pose", "set_pose", "get_pose", "joint_targets",
            "rest_alignment", "PDController", "pd_torques", "apply_joint_torques",
-           "targets_from_quats", "HandOfGod", "StaticBalance", "center_of_mass",
+           "targets_from_quats", "HandOfGod", "Push", "StaticBalance", "center_of_mass",
            "chain_to_root", "jacobian_transpose_torques", "MotionTracker", "TrackingResult"]
