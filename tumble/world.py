@@ -389,7 +389,7 @@ class World:
         for field in ("body_pos", "body_quat", "body_vel", "body_angvel") + _EXTRA_STATE:
             value = getattr(state, field, None)
             if value is None:
-                if field.startswith("body"):
+                if field in ("body_pos", "body_quat", "body_vel", "body_angvel"):
                     raise StateError(f"set_state: {field} is missing")
                 if field not in _DRIVE_STATE:
                     arrays[field] = np.zeros_like(getattr(s, field))
