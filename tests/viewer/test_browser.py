@@ -124,3 +124,19 @@ def test_scrubbing_changes_what_is_shown(replay):
     viewer.seek(len(rec) - 1)                                  # the same frame from Python
     assert changed_pixels(page.settle(), end) <= NOISE
     assert page.errors == []
+
+
+def test_the_camera_follows_the_centre_of_mass(replay):
+    viewer, page, rec = replay
+    viewer.seek(0)
+    cam = _camera(viewer)
+    offset = cam.position - cam.look_at
+    page.page.get_by_role("combobox").last.click()             # the Follow dropdown
+    page.page.get_by_role("option", name="centre of mass").click()
+    for i in (5, len(rec) - 1):
+        viewer.seek(i)
+        np.testing.assert_allclose(cam.look_at, rec.scene.com(rec.body_pos[i]), atol=1e-9)
+        np.testing.assert_allclose(cam.position - cam.look_at, offset, atol=1e-9)
+    page.settle()
+    viewer.follow = None
+    assert page.errors == []

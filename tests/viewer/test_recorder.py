@@ -205,3 +205,13 @@ def test_any_recording_round_trips_bit_for_bit(tmp_path_factory, data):
     _assert_same(rec, loaded)
     # -0.0 and subnormals too: compare the bits
     assert loaded.body_pos.tobytes() == rec.body_pos.tobytes()
+
+
+def test_long_runs_show_a_progress_bar(capsys):
+    pytest.importorskip("tqdm")
+    world = _falling_box()
+    simulate(world, 0.5, fps=10, progress=True, desc="falling")
+    err = capsys.readouterr().err
+    assert "falling:" in err and "/120" in err
+    simulate(world, 0.5, progress=False)
+    assert capsys.readouterr().err == ""

@@ -124,7 +124,23 @@ def test_a_diverging_world_pauses_with_a_status():
     with Viewer(world, port=0, paused=True, control=control) as v:
         v.play()
         assert _wait(lambda: not v.playing)
-        assert "not finite" in v._status
+        assert "not finite" in v._status and v._status.startswith("stopped: ModelError")
+
+
+def test_a_failing_controller_pauses_and_the_viewer_keeps_serving(capsys):
+    world = _box_world()
+
+    def control(w):
+        raise KeyError("no such actuator")
+
+    with Viewer(world, port=0, paused=True, control=control) as v:
+        v.play()
+        assert _wait(lambda: not v.playing)
+        assert v._status.startswith("stopped: KeyError")
+        assert "no such actuator" in capsys.readouterr().err      # the traceback is shown
+        v.control = None
+        v.play()                                                   # and it goes on
+        assert _wait(lambda: world.time > 0.1)
 
 
 def test_viewer_refuses_what_it_cannot_show():
@@ -132,7 +148,46 @@ def test_viewer_refuses_what_it_cannot_show():
         Viewer("nothing.npz", port=0)
     with pytest.raises(tumble.ModelError, match="nworld=1"):
         Viewer(tumble.World(_box_world().model, nworld=2), port=0)
+    with pytest.raises(tumble.ModelError, match="push_stiffness"):
+        Viewer(synthetic_recording(), port=0, push_stiffness=0.0)
     with pytest.raises(tumble.ModelError, match="lighting"):
         Viewer(synthetic_recording(), port=0, lighting="disco")
     with pytest.raises(tumble.ModelError, match="unknown body"):
         Viewer(synthetic_recording(), port=0, follow="nobody")
+
+
+def test_overlays_show_the_frames_contacts_joints_and_com():
+    b = tumble.ModelBuilder(gravity=(0.0, 0.0, -9.81))
+    b.add_geom(None, "plane")
+    box = b.add_body("box", pos=(0.0, 0.0, 0.2), density=300.0)
+    b.add_geom(box, "box", size=(0.2, 0.2, 0.2))
+    arm = b.add_body("arm", pos=(0.0, 0.0, 0.6), density=300.0)
+    b.add_geom(arm, "capsule", radius=0.05, half_length=0.15)
+    b.add_joint("hinge", "hinge", box, arm, anchor=(0.0, 0.0, 0.4), axis=(0.0, 1.0, 0.0))
+    tip = b.add_body("tip", pos=(0.0, 0.0, 0.85), density=300.0)
+    b.add_geom(tip, "sphere", radius=0.05)
+    b.add_joint("pin", "ball", arm, tip, anchor=(0.0, 0.0, 0.8))
+    world = tumble.World(b.build(), dt=1.0 / 240.0, contact="pgs")
+    rec = world.record(contacts=True)
+    rec.run(0.3, fps=30)
+    recording = rec.recording()
+    with Viewer(recording, port=0, paused=True, contacts=True, forces=True, joints=True,
+                com=True) as v:
+        v.seek(-1)
+        points, forces, _ = recording.contacts(len(recording) - 1)
+        assert len(points) > 0
+        assert v._contact_points.visible and v._force_arrows.visible
+        np.testing.assert_allclose(v._contact_points.points, points, atol=2e-3)   # float16
+        np.testing.assert_allclose(v._force_arrows.points[:, 0], points, atol=1e-6)
+        # joint axes: one for the hinge (along y), three for the ball joint
+        segs = v._joint_lines.points
+        assert segs.shape == (4, 2, 3)
+        hinge = segs[0, 1] - segs[0, 0]
+        np.testing.assert_allclose(hinge / np.linalg.norm(hinge), (0, 1, 0), atol=1e-5)
+        com = recording.scene.com(recording.body_pos[-1])
+        np.testing.assert_allclose(v._com_ball.position, com, atol=1e-6)
+        np.testing.assert_allclose(v._com_line.points[0, 1], (com[0], com[1], 0.0), atol=1e-6)
+        v._gui_contacts.value = False           # as the checkbox does
+        assert not v._contact_points.visible
+        v._gui_bodies.value = False
+        assert not any(node.visible for node in v._body_nodes)

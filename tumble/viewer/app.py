@@ -17,10 +17,11 @@ Needs the ``viewer`` extra (viser).
 """
 import threading
 import time
+import traceback
 
 import numpy as np
 
-from ..errors import ModelError, SimulationError, TumbleError
+from ..errors import ModelError, TumbleError
 from .recorder import Recorder, Recording
 from .render import auto_camera
 from .scene import CONVEX, HEIGHTFIELD, PLANE, quat_to_matrix
@@ -58,6 +59,8 @@ class Viewer:
     loop : recordings: start again at the end (otherwise pause there).
     contacts, forces, joints, com : initial state of the overlay toggles.
     body_colors : {body: (r, g, b)} for live worlds (see ``Scene.from_model``).
+    push_stiffness : initial stiffness k (1/s^2, per kg of the pushed body) of the spring
+        that pulls a dragged body (the page has a slider for it).
     lighting : 'simple' (directional and ambient lights: quick to start even in a software
         WebGL browser) or 'studio' (viser's image-based lighting; nicer on a GPU).
     verbose : let viser print its banner and connection messages.
@@ -66,7 +69,7 @@ class Viewer:
     def __init__(self, source, *, host="127.0.0.1", port=8080, fps=30.0, speed=1.0,
                  paused=False, control=None, follow=None, history=120.0, loop=True,
                  contacts=False, forces=False, joints=False, com=False, body_colors=None,
-                 lighting="simple", label=None, verbose=False):
+                 push_stiffness=200.0, lighting="simple", label=None, verbose=False):
         try:
             import viser
         except ImportError:
@@ -78,6 +81,10 @@ class Viewer:
             raise ModelError(f"viewer: fps must be > 0, got {fps!r}")
         if lighting not in ("simple", "studio"):
             raise ModelError(f"viewer: lighting must be 'simple' or 'studio', got {lighting!r}")
+        if not (np.isfinite(push_stiffness) and 1.0 <= push_stiffness <= 1000.0):
+            raise ModelError(f"viewer: push_stiffness must be in [1, 1000] 1/s^2, "
+                             f"got {push_stiffness!r}")
+        self._push_k0 = float(push_stiffness)
         self._lighting = lighting
         self.fps = float(fps)
         self._lock = threading.RLock()
@@ -162,7 +169,8 @@ class Viewer:
     def speed(self, value):
         v = float(value)
         if not (_SPEEDS[0] <= v <= _SPEEDS[1]):
-            raise ModelError(f"viewer: speed must be in [{_SPEEDS[0]}, {_SPEEDS[1]}], got {value!r}")
+            raise ModelError(f"viewer: speed must be in [{_SPEEDS[0]}, {_SPEEDS[1]}], "
+                             f"got {value!r}")
         self._speed = v
         if hasattr(self, "_gui_speed"):
             self._gui_speed.value = v
@@ -256,8 +264,10 @@ class Viewer:
     def push(self, body, target, point=None):
         """Live worlds: pull ``body`` (name or index) at ``point`` (world frame, default its
         COM) towards the world point ``target`` until :meth:`release`, as a mouse drag
-        does. The force is a damped spring, ``m (k (target - p) - 2 zeta sqrt(k) v_p)``,
-        applied through ``World.apply_force`` before every step."""
+        does. The force is a damped spring acting at the grabbed point p (velocity v_p),
+        ``m (k (target - p) - 2 zeta sqrt(k) v_p)`` with the body's mass m, the Stiffness
+        slider's k and zeta = 0.7, applied through ``World.apply_force`` before every
+        step while the world plays."""
         if not self.live:
             raise ModelError("viewer: push needs a live world, not a recording")
         b = self.scene.body_index(body)
@@ -309,9 +319,11 @@ class Viewer:
                         if pf is not None:
                             w.apply_force(pf[0], pf[1], point=pf[2])
                     w.step(1)
-        except TumbleError as exc:
+        except Exception as exc:          # noqa: BLE001 - a controller's bug must not kill the UI
+            if not isinstance(exc, TumbleError):
+                traceback.print_exc()
             self._playing = False
-            self._status = f"stopped: {exc}"
+            self._status = f"stopped: {type(exc).__name__}: {exc}"
             w.clear_forces()
         self._history.capture()
         self._frame = len(self._history) - 1
@@ -344,9 +356,13 @@ class Viewer:
         while not self._stop.is_set():
             now = time.perf_counter()
             with self._lock:
-                # a slow simulation runs slower than real time rather than piling up work
-                self._tick(min(now - last, 4 * period))
-                self._show()
+                try:
+                    # a slow simulation runs slower than real time rather than piling up work
+                    self._tick(min(now - last, 4 * period))
+                    self._show()
+                except Exception:                 # noqa: BLE001 - keep serving the page
+                    traceback.print_exc()
+                    self._playing = False
             last = now
             self._stop.wait(max(0.0, period - (time.perf_counter() - now)))
 
@@ -438,7 +454,6 @@ class Viewer:
         if key == self._shown and not force and self._push is None:
             return
         self._shown = key
-        s = self.scene
         with self.server.atomic():
             for b, node in enumerate(self._body_nodes):
                 node.position = tuple(pos[b])
@@ -552,7 +567,7 @@ class Viewer:
         with gui.add_folder("Push", visible=self.live):
             gui.add_markdown("Drag a body with the left mouse button to pull it.")
             self._gui_stiffness = gui.add_slider("Stiffness (1/s²)", min=1.0, max=1000.0,
-                                                 step=1.0, initial_value=200.0)
+                                                 step=1.0, initial_value=self._push_k0)
         self._gui_status = gui.add_text("Status", initial_value="", disabled=True)
 
         @self._gui_play.on_click

@@ -4,10 +4,11 @@ Recording.
 MODEL may be
 
 * a recording, ``*.npz`` (written by ``Recorder.save``): replayed;
-* a Python file, ``*.py``: it is run, and the first of these it defines is used:
-  ``world`` (a World), ``model`` (a Model), or a function ``build()`` / ``make_world()``
-  returning either. A function ``control(world)`` it defines is used as the controller
-  (called before every step);
+* a Python file, ``*.py``: it is run (with ``__name__`` set to ``"__tumble_view__"``, so
+  code under ``if __name__ == "__main__":`` is skipped), and the first of these it defines
+  is used: ``world`` (a World), ``model`` (a Model), or a function ``build()`` /
+  ``make_world()`` returning either. A function ``control(world)`` it defines is used as
+  the controller (called before every step);
 * an MJCF file, ``*.xml``, when this tumble has ``tumble.load_mjcf``;
 * the name of a built-in demo (``tumble.apps.scenes.DEMOS``: ragdoll, stack, chain, racket).
 """
