@@ -101,7 +101,7 @@ def body_silhouettes(scene, pos, quat, camera):
 
 def dilate(mask, r):
     """Grow (r > 0) or shrink (r < 0) a boolean mask by |r| pixels (square neighbourhood)."""
-    out = mask.copy() if r > 0 else mask.copy()
+    out = mask.copy()
     pad = np.pad(mask, abs(r), constant_values=r < 0)
     h, w = mask.shape
     for dy in range(-abs(r), abs(r) + 1):
