@@ -10,6 +10,7 @@ The public API (see the README and DESIGN notes):
     load_character_model  ragdolls from skeletons (tumble.character)
     set_pose, get_pose, joint_targets, Pose   motion frames <-> world poses
     PDController, HandOfGod, StaticBalance, MotionTracker   character control
+    Recorder, Recording   record a run, save/load it (.npz); tumble.viewer views and exports
     ModelError, StateError, SimulationError, TumbleError
 """
 from ._cache import invalidate_stale_kernels
@@ -23,6 +24,7 @@ from .world import State, World
 from .character import (HandOfGod, MotionTracker, PDController, Pose, Ragdoll, Skeleton,
                         StaticBalance, build_ragdoll, games105_ragdoll, get_pose,
                         joint_targets, load_character_model, ragdoll_from_motion, set_pose)
+from .viewer.recorder import Recorder, Recording
 
 __version__ = "0.1.0"
 
@@ -32,5 +34,6 @@ __all__ = ["ModelBuilder", "Model", "World", "State", "Motion", "load_bvh", "loa
            "save_bvh", "load_mjcf", "load_urdf",
            "Skeleton", "Ragdoll", "build_ragdoll", "ragdoll_from_motion", "games105_ragdoll",
            "load_character_model", "Pose", "set_pose", "get_pose", "joint_targets",
-           "PDController", "HandOfGod", "StaticBalance", "MotionTracker",
+           "PDController", "HandOfGod", "StaticBalance", "MotionTracker", "Recorder",
+           "Recording",
            "TumbleError", "ModelError", "StateError", "SimulationError", "__version__"]

@@ -1032,6 +1032,19 @@ class World:
         spin = np.einsum("wbij,wbj->wbi", self._world_inertia(s.body_quat), s.body_angvel)
         return self._view((orbital + spin).sum(axis=1))
 
+    # ---------------------------------------------------------------- viewing
+    def record(self, **options):
+        """A ``tumble.Recorder`` collecting frames of this world; options as for Recorder."""
+        from .viewer.recorder import Recorder
+        return Recorder(self, **options)
+
+    def view(self, **options):
+        """Open the browser viewer on this world and serve until Ctrl-C (``block=False``
+        returns the Viewer at once); options as for ``tumble.viewer.Viewer``. Needs
+        ``tumble[viewer]``."""
+        from .viewer.app import view
+        return view(self, **options)
+
     def __repr__(self):
         return (f"<tumble.World: {self.model.nbody} bodies, dt={self.dt:g} s, t={self.time:g} s"
                 + (f", {self.nworld} worlds" if self.nworld > 1 else "") + ">")
