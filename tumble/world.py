@@ -14,6 +14,7 @@ from .pipeline.contacts.arrays import ContactArrays, make_contacts
 from .pipeline.contacts.penalty import default_penalty
 from .pipeline.queries import distance_between, raycast_scene
 from .pipeline.actuators import PD_MODES
+from .pipeline.collision.broadphase import BROADPHASES
 from .pipeline.integrate import GYRO_EXPLICIT, GYRO_IMPLICIT, GYRO_NONE, QUAT_EXP, QUAT_LINEAR
 
 GYROSCOPIC = {"implicit": GYRO_IMPLICIT, "explicit": GYRO_EXPLICIT, "none": GYRO_NONE}
@@ -171,6 +172,10 @@ class World:
         2011: explicit torques predicted against the end-of-step state by a joints-only
         implicit solve). Same gains in all three; may be changed between steps. See
         ``tumble.pipeline.actuators``.
+    broadphase : how candidate geom pairs are found: 'sap' (sort and sweep) or 'grid'
+        (hashed uniform grid, cell twice the median AABB size; planes, walls and
+        heightfields kept out of it). Both give exactly the same pairs, so the contacts and
+        the motion do not depend on it, only the time; may be changed between steps.
 
     The state arrays ``body_pos``, ``body_quat``, ``body_vel``, ``body_angvel`` are live
     views: write into them between steps to set the state.
@@ -181,7 +186,8 @@ class World:
                  cfm=1e-10, iterations=300, tolerance=1e-12, warm_start=True, projection=2,
                  projection_tolerance=5e-5, contact_erp=0.2, contact_cfm=0.0, slop=1e-4,
                  bounce_threshold=0.2, penalty_stiffness=None, penalty_damping=None,
-                 slip_velocity=None, contact_margin=0.01, pd="implicit"):
+                 slip_velocity=None, contact_margin=0.01, pd="implicit",
+                 broadphase="sap"):
         if not isinstance(model, Model):
             raise ModelError(f"World needs a tumble Model, got {type(model).__name__}")
         self.model = model
@@ -236,6 +242,7 @@ class World:
         self.slip_velocity = None if slip_velocity is None else positive(
             slip_velocity, "world", "slip_velocity")
         self.pd = pd
+        self.broadphase = broadphase
         self.nworld = int(nworld)
         nb, nw, nj = model.nbody, self.nworld, model.njoint
         self._state = pipeline_step.StateArrays(
@@ -276,6 +283,18 @@ class World:
         if value not in PD_MODES:
             raise ModelError(f"world: pd must be one of {list(PD_MODES)}, got {value!r}")
         self._pd = value
+
+    @property
+    def broadphase(self):
+        """Broad phase: 'sap' or 'grid' (see the class docs)."""
+        return self._broadphase
+
+    @broadphase.setter
+    def broadphase(self, value):
+        if not isinstance(value, str) or value not in BROADPHASES:
+            raise ModelError(f"world: broadphase must be one of {list(BROADPHASES)}, "
+                             f"got {value!r}")
+        self._broadphase = value
 
     # ------------------------------------------------------------------ state
     def reset(self):
@@ -613,7 +632,7 @@ class World:
             float(self.projection_tolerance), CONTACT_MODELS[self.contact],
             float(self.contact_erp), float(self.contact_cfm), float(self.slop),
             float(self.bounce_threshold), float(k), float(c), float(v_slip),
-            float(self.contact_margin), PD_MODES[self.pd])
+            float(self.contact_margin), PD_MODES[self.pd], BROADPHASES[self.broadphase])
 
     def penalty_parameters(self):
         """(stiffness N/m, damping N s/m) of penalty contacts at the current dt."""

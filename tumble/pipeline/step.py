@@ -49,7 +49,8 @@ StepOptions = namedtuple("StepOptions", [
     "dt", "gyroscopic", "quat_integration", "divergence_limit",
     "erp", "cfm", "solver", "iterations", "tolerance", "warm_start", "projection",
     "projection_tolerance", "contact", "contact_erp", "contact_cfm", "slop",
-    "bounce_threshold", "penalty_k", "penalty_c", "v_slip", "contact_margin", "pd_mode"])
+    "bounce_threshold", "penalty_k", "penalty_c", "v_slip", "contact_margin", "pd_mode",
+    "broadphase"])
 
 # Everything that changes while stepping, for the compiled step.
 StateArrays = namedtuple("StateArrays", [
@@ -208,7 +209,7 @@ def step_worlds(m, s, con, pairs, n, o):
                     for q in range(3):
                         prev.impulse[c, q] = cw.impulse[c, q]
                 code, ncon = collide_world(m, pos, quat, gpos, gquat, aabb_lo, aabb_hi, pairs,
-                                           cw, nprev, prev, o.contact_margin)
+                                           cw, nprev, prev, o.contact_margin, o.broadphase)
                 if code != COLLIDE_OK:
                     status = STEP_MORE_PAIRS if code == COLLIDE_PAIRS_FULL else STEP_MORE_CONTACTS
                     fail_w, fail_k, needed = w, k, ncon
