@@ -6,7 +6,7 @@
     contacts.penalty                spring-damper contact forces (contact="penalty")
     integrate.integrate_velocities  Newton-Euler, gyroscopic term explicit or implicit
     joints.rows.build_joint_rows    constraint rows of every joint (ERP/CFM, limits, motors)
-    contacts.rows                   normal and friction rows of every contact
+    contacts.rows                   normal, friction (and spin-friction) rows of every contact
     solvers.direct / solvers.pgs    impulses that satisfy the rows; constrained velocities
     joints.rows.joint_reactions     each joint's force and torque on its child
     integrate.integrate_positions   positions and orientations with the new velocities
@@ -25,6 +25,7 @@ from numba import njit
 
 from .collide import COLLIDE_OK, COLLIDE_PAIRS_FULL, collide_world
 from .contacts.arrays import ContactArrays, make_contacts_nb
+from .contacts.pairs import ROWS_SPIN, rows_per_contact
 from .contacts.penalty import penalty_forces
 from .contacts.rows import build_contact_rows, store_contact_impulses
 from .actuators import PD_EXPLICIT, PD_IMPLICIT, PD_STABLE, actuator_forces, stable_servo_forces
@@ -164,7 +165,8 @@ def step_worlds(m, s, con, pairs, n, o):
     force = np.empty((nb, 3))
     torque = np.empty((nb, 3))
     inv_inertia = np.zeros((nb, 3, 3))
-    ncap = njrow + (3 * cap if o.contact != CONTACT_PENALTY else 0)
+    nper = rows_per_contact(m)                   # rows per contact: 3, or 6 with spin friction
+    ncap = njrow + (nper * cap if o.contact != CONTACT_PENALTY else 0)
     rows = make_rows_nb(ncap)
     imp = np.zeros(ncap)
     gpos = np.zeros((ng, 3))
@@ -195,7 +197,7 @@ def step_worlds(m, s, con, pairs, n, o):
                 for c in range(nprev):
                     prev.geom[c, 0], prev.geom[c, 1] = cw.geom[c, 0], cw.geom[c, 1]
                     prev.feature[c] = cw.feature[c]
-                    for q in range(3):
+                    for q in range(cw.impulse.shape[1]):
                         prev.impulse[c, q] = cw.impulse[c, q]
                 code, ncon = collide_world(m, pos, quat, gpos, gquat, aabb_lo, aabb_hi, pairs,
                                            cw, nprev, prev, o.contact_margin)
@@ -214,18 +216,19 @@ def step_worlds(m, s, con, pairs, n, o):
                                     o.gyroscopic, o.tolerance, rows, imp, vel_pred,
                                     angvel_pred, inv_inertia, force, torque)
             if o.contact == CONTACT_PENALTY and ncon > 0:
-                penalty_forces(pos, vel, angvel, cw, ncon, o.penalty_k, o.penalty_c, o.v_slip, h,
-                               force, torque)
+                penalty_forces(m, pos, quat, vel, angvel, cw, ncon, o.penalty_k, o.penalty_c,
+                               o.v_slip, h, nper == ROWS_SPIN, force, torque)
             integrate_velocities(m, quat, vel, angvel, force, torque, h, o.gyroscopic)
-            nrow = njrow + (3 * ncon if o.contact != CONTACT_PENALTY else 0)
+            nrow = njrow + (nper * ncon if o.contact != CONTACT_PENALTY else 0)
             if nrow > 0:
                 if njrow > 0:
                     build_joint_rows(m, pos, quat, vel, angvel, drive, h, o.erp, o.cfm, rows,
                                      o.pd_mode == PD_IMPLICIT)
                     imp[:njrow] = s.row_impulse[w]
                 if nrow > njrow:
-                    build_contact_rows(pos, vel, angvel, cw, ncon, njrow, h, o.contact_erp,
-                                       o.contact_cfm, o.slop, o.bounce_threshold, rows, imp)
+                    build_contact_rows(m, pos, vel, angvel, cw, ncon, njrow, nper, h,
+                                       o.contact_erp, o.contact_cfm, o.slop,
+                                       o.bounce_threshold, rows, imp)
                 world_inverse_inertia(m, quat, inv_inertia)
                 s.lcp_fallbacks[w] += solve_rows(m, rows, nrow, njrow, ncon, inv_inertia, vel,
                                                  angvel, imp, o)
@@ -234,7 +237,7 @@ def step_worlds(m, s, con, pairs, n, o):
                     joint_reactions(m, pos, quat, rows, s.row_impulse[w], h, s.joint_force[w],
                                     s.joint_torque[w])
                 if nrow > njrow:
-                    store_contact_impulses(cw, ncon, njrow, imp)
+                    store_contact_impulses(cw, ncon, njrow, nper, imp)
             integrate_positions(m, pos, quat, vel, angvel, h, o.quat_integration)
             if njrow > 0 and o.projection > 0:
                 project_joints(m, pos, quat, vel, angvel, drive, rows, inv_inertia,
