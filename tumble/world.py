@@ -1,11 +1,12 @@
 """World: the state of one model (or a batch of copies) and the calls that step and query it."""
 import os
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from .errors import ModelError, SimulationError, StateError
+from .errors import ModelError, SimulationError, StateError, TumbleWarning
 from .math.quat import quat_rotate, quat_rotate_inv
 from .model.model import DYNAMIC, KINEMATIC, STATIC, Model
 from .model.validate import positive
@@ -44,6 +45,7 @@ class Contacts:
     depth: np.ndarray
     force: np.ndarray
     normal_force: np.ndarray
+    torque: np.ndarray
 
     def __len__(self):
         return len(self.depth)
@@ -162,7 +164,9 @@ class World:
     slop : penetration (m) left alone, so resting contacts do not jitter.
     bounce_threshold : approach speed (m/s) below which restitution is ignored.
     penalty_stiffness, penalty_damping : N/m and N s/m of penalty contacts; default from the
-        lightest colliding body (see ``tumble.pipeline.contacts.penalty``).
+        lightest colliding body (see ``tumble.pipeline.contacts.penalty``). Geoms given their
+        own ``stiffness``/``damping`` (``ModelBuilder.add_geom``) override them for their
+        pairs; a geom stiffness too stiff for its body at this dt is warned about.
     slip_velocity : penalty friction's regularisation speed (m/s); default ``|g| dt``.
     projection_tolerance : largest row error (m, rad) past which projection runs; below it ERP
         alone pulls joints together, which dissipates less.
@@ -243,6 +247,8 @@ class World:
             slip_velocity, "world", "slip_velocity")
         self.pd = pd
         self.broadphase = broadphase
+        if contact == "penalty":
+            self._warn_stiff_geoms()
         self.nworld = int(nworld)
         nb, nw, nj = model.nbody, self.nworld, model.njoint
         self._state = pipeline_step.StateArrays(
@@ -642,6 +648,24 @@ class World:
         return (self.penalty_stiffness or k,
                 c if self.penalty_damping is None else self.penalty_damping)
 
+    def _warn_stiff_geoms(self):
+        """Warn about geoms whose own contact stiffness k makes their body's penalty spring
+        unstable at this dt: semi-implicit Euler needs sqrt(k / m) dt < 2 on one contact,
+        < 1 on four sharing the weight (see ``tumble.pipeline.contacts.penalty``)."""
+        m = self.model
+        for g in np.flatnonzero(m.geom_stiffness > 0):
+            b = m.geom_body[g]
+            if b < 0 or m.body_kind[b] != DYNAMIC:
+                continue
+            wh = np.sqrt(m.geom_stiffness[g] / m.body_mass[b]) * self.dt
+            if wh > 1.0:
+                warnings.warn(
+                    f"geom '{m.geom_names[g]}': contact stiffness {m.geom_stiffness[g]:.4g} N/m "
+                    f"on body '{m.body_names[b]}' ({m.body_mass[b]:.4g} kg) gives "
+                    f"sqrt(k/m) dt = {wh:.3g} at dt = {self.dt:g} s; penalty contacts are "
+                    f"stable below 1 (four contacts) to 2 (one): lower the stiffness or dt",
+                    TumbleWarning, stacklevel=3)
+
     def _grow_contacts(self, needed):
         old, n = self._contacts, self._contacts.depth.shape[1]
         new = make_contacts(self.nworld, max(needed, 2 * n))
@@ -857,7 +881,10 @@ class World:
         """Contacts of the last step in one world, as a ``Contacts`` of arrays (n contacts):
         ``geoms`` (n, 2), ``bodies`` (n, 2) (-1 = world), ``point`` (n, 3), ``normal`` (n, 3)
         from the first geom to the second, ``depth`` (n,) m, ``force`` (n, 3) on the second
-        body in the world frame, N (the first gets the opposite), ``normal_force`` (n,) N."""
+        body in the world frame, N (the first gets the opposite), ``normal_force`` (n,) N,
+        ``torque`` (n, 3) the torsional and rolling friction torque on the second body,
+        N m, world frame (zero without spin friction; a pure couple, acting besides
+        ``force`` at ``point``)."""
         w = self._world_slice(world) if world is not None else 0
         n = int(self._state.contact_count[w])
         c = self._contacts
@@ -865,8 +892,9 @@ class World:
         t1, t2 = _tangents(normal)
         imp = c.impulse[w, :n] / self.dt
         force = imp[:, :1] * normal + imp[:, 1:2] * t1 + imp[:, 2:3] * t2
+        torque = imp[:, 3:4] * normal + imp[:, 4:5] * t1 + imp[:, 5:6] * t2
         return Contacts(c.geom[w, :n].copy(), c.body[w, :n].copy(), point, normal,
-                        c.depth[w, :n].copy(), force, imp[:, 0].copy())
+                        c.depth[w, :n].copy(), force, imp[:, 0].copy(), torque)
 
     @property
     def lcp_fallbacks(self):
@@ -918,7 +946,8 @@ class World:
         for sign, side in ((-1.0, 0), (1.0, 1)):
             mine = con.bodies[:, side] == b
             f += sign * con.force[mine].sum(0)
-            t += sign * np.cross(con.point[mine] - com, con.force[mine]).sum(0)
+            t += sign * (np.cross(con.point[mine] - com, con.force[mine]).sum(0)
+                         + con.torque[mine].sum(0))
         return f, t
 
     # ----------------------------------------------------------------- forces

@@ -117,12 +117,12 @@ def collide_world(m, pos, quat, gpos, gquat, aabb_lo, aabb_hi, pairs, con, prev_
             con.body[c, 1] = m.geom_body[gb]
             con.friction[c] = max(m.geom_friction[ga], m.geom_friction[gb])
             con.restitution[c] = max(m.geom_restitution[ga], m.geom_restitution[gb])
-            for k in range(3):
+            for k in range(con.impulse.shape[1]):
                 con.impulse[c, k] = 0.0
             q = p
             while q < prev_count and prev.geom[q, 0] == ga and prev.geom[q, 1] == gb:
                 if prev.feature[q] == con.feature[c]:
-                    for k in range(3):
+                    for k in range(con.impulse.shape[1]):
                         con.impulse[c, k] = prev.impulse[q, k]
                     break
                 q += 1

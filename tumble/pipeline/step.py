@@ -7,7 +7,7 @@
     integrate.integrate_velocities  Newton-Euler, gyroscopic term explicit or implicit
     joints.rows.build_joint_rows    constraint rows of every joint (ERP/CFM, limits, motors)
     actuators.body_servo_rows       implicit PD rows pulling bodies to targets (hand of god)
-    contacts.rows                   normal and friction rows of every contact
+    contacts.rows                   normal, friction (and spin-friction) rows of every contact
     solvers.direct / solvers.pgs    impulses that satisfy the rows; constrained velocities
     joints.rows.joint_reactions     each joint's force and torque on its child
     integrate.integrate_positions   positions and orientations with the new velocities
@@ -26,6 +26,7 @@ from numba import njit
 
 from .collide import COLLIDE_OK, COLLIDE_PAIRS_FULL, collide_world
 from .contacts.arrays import ContactArrays, make_contacts_nb
+from .contacts.pairs import ROWS_SPIN, rows_per_contact
 from .contacts.penalty import penalty_forces
 from .contacts.rows import build_contact_rows, store_contact_impulses
 from .actuators import (PD_EXPLICIT, PD_IMPLICIT, PD_STABLE, actuator_forces, body_servo_rows,
@@ -175,7 +176,8 @@ def step_worlds(m, s, con, pairs, n, o):
     inv_inertia = np.zeros((nb, 3, 3))
     servoed = servoed_bodies(s.body_servo)
     nfix = njrow + 6 * servoed.shape[0]      # joint rows, then body servo rows, then contacts
-    ncap = nfix + (3 * cap if o.contact != CONTACT_PENALTY else 0)
+    nper = rows_per_contact(m)               # rows per contact: 3, or 6 with spin friction
+    ncap = nfix + (nper * cap if o.contact != CONTACT_PENALTY else 0)
     rows = make_rows_nb(ncap)
     imp = np.zeros(ncap)
     gpos = np.zeros((ng, 3))
@@ -206,7 +208,7 @@ def step_worlds(m, s, con, pairs, n, o):
                 for c in range(nprev):
                     prev.geom[c, 0], prev.geom[c, 1] = cw.geom[c, 0], cw.geom[c, 1]
                     prev.feature[c] = cw.feature[c]
-                    for q in range(3):
+                    for q in range(cw.impulse.shape[1]):
                         prev.impulse[c, q] = cw.impulse[c, q]
                 code, ncon = collide_world(m, pos, quat, gpos, gquat, aabb_lo, aabb_hi, pairs,
                                            cw, nprev, prev, o.contact_margin, o.broadphase)
@@ -225,10 +227,10 @@ def step_worlds(m, s, con, pairs, n, o):
                                     o.gyroscopic, o.tolerance, rows, imp, vel_pred,
                                     angvel_pred, inv_inertia, force, torque)
             if o.contact == CONTACT_PENALTY and ncon > 0:
-                penalty_forces(pos, vel, angvel, cw, ncon, o.penalty_k, o.penalty_c, o.v_slip, h,
-                               force, torque)
+                penalty_forces(m, pos, quat, vel, angvel, cw, ncon, o.penalty_k, o.penalty_c,
+                               o.v_slip, h, nper == ROWS_SPIN, force, torque)
             integrate_velocities(m, quat, vel, angvel, force, torque, h, o.gyroscopic)
-            nrow = nfix + (3 * ncon if o.contact != CONTACT_PENALTY else 0)
+            nrow = nfix + (nper * ncon if o.contact != CONTACT_PENALTY else 0)
             if nrow > 0:
                 if njrow > 0:
                     build_joint_rows(m, pos, quat, vel, angvel, drive, h, o.erp, o.cfm, rows,
@@ -240,8 +242,9 @@ def step_worlds(m, s, con, pairs, n, o):
                                     s.body_target_angvel[w], h, rows, njrow)
                     imp[njrow:nfix] = 0.0
                 if nrow > nfix:
-                    build_contact_rows(pos, vel, angvel, cw, ncon, nfix, h, o.contact_erp,
-                                       o.contact_cfm, o.slop, o.bounce_threshold, rows, imp)
+                    build_contact_rows(m, pos, vel, angvel, cw, ncon, nfix, nper, h,
+                                       o.contact_erp, o.contact_cfm, o.slop,
+                                       o.bounce_threshold, rows, imp)
                 world_inverse_inertia(m, quat, inv_inertia)
                 s.lcp_fallbacks[w] += solve_rows(m, rows, nrow, nfix, ncon, inv_inertia, vel,
                                                  angvel, imp, o)
@@ -250,7 +253,7 @@ def step_worlds(m, s, con, pairs, n, o):
                     joint_reactions(m, pos, quat, rows, s.row_impulse[w], h, s.joint_force[w],
                                     s.joint_torque[w])
                 if nrow > nfix:
-                    store_contact_impulses(cw, ncon, nfix, imp)
+                    store_contact_impulses(cw, ncon, nfix, nper, imp)
             integrate_positions(m, pos, quat, vel, angvel, h, o.quat_integration)
             if njrow > 0 and o.projection > 0:
                 project_joints(m, pos, quat, vel, angvel, drive, rows, inv_inertia,

@@ -61,6 +61,7 @@ def set_row(rows, r, a, b, lin_a, ang_a, lin_b, ang_b, rhs, cfm, lo, hi):
     rows.hi[r] = hi
     rows.parent[r] = -1
     rows.mu[r] = 0.0
+    rows.group[r] = -1
 
 
 @njit(cache=True, inline="always")

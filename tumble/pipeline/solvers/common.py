@@ -7,8 +7,11 @@ from numba import njit
 from ...math.spatial import inertia_world_inv
 from ...model.model import DYNAMIC
 
-# parent >= 0 marks a friction row whose bounds are -+ mu * impulse[parent].
-Rows = namedtuple("Rows", ["body_a", "body_b", "J", "rhs", "cfm", "lo", "hi", "parent", "mu"])
+# parent >= 0 marks a friction row whose bounds are -+ mu * impulse[parent]; friction rows
+# with the same group (>= 0) share one friction pyramid in the exact (Lemke) solver, e.g.
+# a contact's two tangent rows, or its two rolling rows.
+Rows = namedtuple("Rows", ["body_a", "body_b", "J", "rhs", "cfm", "lo", "hi", "parent", "mu",
+                           "group"])
 
 
 @njit(cache=True)
@@ -16,7 +19,7 @@ def make_rows_nb(nrow):
     """Empty row arrays for ``nrow`` rows (see joints/common.py for their meaning)."""
     return Rows(np.full(nrow, -1, np.int32), np.full(nrow, -1, np.int32), np.zeros((nrow, 12)),
                 np.zeros(nrow), np.zeros(nrow), np.zeros(nrow), np.zeros(nrow),
-                np.full(nrow, -1, np.int32), np.zeros(nrow))
+                np.full(nrow, -1, np.int32), np.zeros(nrow), np.full(nrow, -1, np.int32))
 
 
 @njit(cache=True)

@@ -7,9 +7,10 @@ Rows (see ``joints/common.py``) fall into four kinds:
 * unilateral (``[0, inf)``: contact normals, joint limits) -- one LCP variable each;
 * friction rows of a contact (bounds ``-+ mu p_n``) -- the friction pyramid of
   Stewart and Trinkle: each tangent row gives two variables ``beta+-`` (impulse
-  ``beta+ - beta-``), and each contact one slack ``lambda`` with
+  ``beta+ - beta-``), and each group of rows (``rows.group``: a contact's two tangents,
+  its two rolling rows, its torsional row alone) one slack ``lambda`` with
   ``w_beta+- = +-(row velocity) + lambda`` and ``w_lambda = mu p_n - sum(beta)``: four
-  directions, the Coulomb cone's inscribed pyramid;
+  directions, the Coulomb cone's inscribed pyramid (two for a lone row: a box);
 * symmetric box rows (``[-F, F]``: motors, dry joint friction) -- the same construction
   with the constant bound ``F``.
 
@@ -118,15 +119,16 @@ def solve_mlcp(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, max_pivo
             var_row[nz], var_sign[nz] = i, 1.0
             var_row[nz + 1], var_sign[nz + 1] = i, -1.0
             nz += 2
-    # slack per contact (friction rows sharing a parent) or per box row
+    # slack per friction group (rows of one contact sharing a pyramid) or per box row
     for i in range(nn):
         k = kind[oth[i]]
         if k != KIND_FRICTION and k != KIND_BOX:
             continue
         if k == KIND_FRICTION:
-            parent = rows.parent[idx[oth[i]]]
+            group = rows.group[idx[oth[i]]]
             for j in range(i):
-                if kind[oth[j]] == KIND_FRICTION and rows.parent[idx[oth[j]]] == parent:
+                if group >= 0 and kind[oth[j]] == KIND_FRICTION and \
+                        rows.group[idx[oth[j]]] == group:
                     group_of[i] = group_of[j]
                     break
         if group_of[i] < 0:
