@@ -22,8 +22,9 @@ from numba import njit
 
 from ..joints.common import INF
 from .common import apply_impulse, row_active
-from .direct import assemble, cholesky_solve
+from .direct import assemble, cholesky_apply, cholesky_factor, row_dot, row_responses
 from .lemke import LEMKE_SOLVED, lemke
+from .tree import tree_factor, tree_plan, tree_solve
 
 KIND_BILATERAL, KIND_UNILATERAL, KIND_FRICTION, KIND_BOX = 0, 1, 2, 3
 _BIG = 0.5 * INF
@@ -38,6 +39,13 @@ def solve_mlcp(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, max_pivo
     On failure nothing is applied and ``impulse`` is left as it came (warm start for
     the caller's fallback).
     """
+    return mixed_lcp(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, max_pivots, True)
+
+
+@njit(cache=True)
+def mixed_lcp(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, max_pivots, allow_tree):
+    """``solve_mlcp``; with ``allow_tree`` False the Schur complement is always formed
+    densely (the reference the tree path is tested against)."""
     idx = np.empty(nrow, np.int64)
     where = np.full(nrow, -1, np.int64)          # row -> position among active rows
     n = 0
@@ -48,10 +56,10 @@ def solve_mlcp(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, max_pivo
             n += 1
     if n == 0:
         return LEMKE_SOLVED
+    nbody = vel.shape[0]
     dv = np.zeros((n, 12))
-    A = np.zeros((n, n))
     b = np.zeros(n)
-    assemble(rows, idx, n, inv_mass, inv_inertia, vel, angvel, dv, A, b)
+    row_responses(rows, idx, n, inv_mass, inv_inertia, vel, angvel, dv, b)
     kind = np.empty(n, np.int64)
     nb = 0
     for i in range(n):
@@ -76,34 +84,16 @@ def solve_mlcp(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, max_pivo
             oth[k2] = i
             k2 += 1
     nn = n - nb
-    # Schur complement: X = A_BB^-1 [A_BN | b_B]
-    Abb = np.empty((nb, nb))
-    for u in range(nb):
-        for v in range(nb):
-            Abb[u, v] = A[bil[u], bil[v]]
-    work = np.zeros((nb, nb))
+    # Schur complement S = A_NN - A_NB A_BB^-1 A_BN, c = b_N - A_NB A_BB^-1 b_B, and
+    # X = A_BB^-1 [A_BN | b_B] to recover the bilateral impulses
     X = np.zeros((nb, nn + 1))
-    col = np.empty(nb)
-    for c in range(nn + 1):
-        for u in range(nb):
-            col[u] = A[bil[u], oth[c]] if c < nn else b[bil[u]]
-        x, ok = cholesky_solve(Abb, col, nb, work)
-        if not ok:
-            return 3
-        for u in range(nb):
-            X[u, c] = x[u]
     S = np.empty((nn, nn))
     cvec = np.empty(nn)
-    for i in range(nn):
-        for j in range(nn):
-            s = A[oth[i], oth[j]]
-            for u in range(nb):
-                s -= A[oth[i], bil[u]] * X[u, j]
-            S[i, j] = s
-        s = b[oth[i]]
-        for u in range(nb):
-            s -= A[oth[i], bil[u]] * X[u, nn]
-        cvec[i] = s
+    if not (allow_tree and _schur_tree(rows, idx, n, bil, nb, oth, nn, dv, b, inv_mass,
+                                       inv_inertia, nbody, X, S, cvec)):
+        if not _schur_dense(rows, idx, n, bil, nb, oth, nn, inv_mass, inv_inertia, vel, angvel,
+                            X, S, cvec):
+            return 3
     # LCP variables: one per unilateral row, two per friction/box row, one slack per group
     var_row = np.empty(3 * nn, np.int64)       # position in oth
     var_sign = np.zeros(3 * nn)                # +1 / -1 impulse sign; 0 for slacks
@@ -180,3 +170,107 @@ def solve_mlcp(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, max_pivo
         impulse[idx[i]] = p[i]
         apply_impulse(rows, idx[i], dv[i], p[i], vel, angvel)
     return LEMKE_SOLVED
+
+
+@njit(cache=True)
+def _schur_tree(rows, idx, n, bil, nb, oth, nn, dv, b, inv_mass, inv_inertia, nbody, X, S,
+                cvec):
+    """The Schur complement with the bilateral rows factorised over their tree (tree.py).
+
+    Column j of ``A_BB^-1 A_BN`` solves ``A_BB x = J_B dv_j`` (``dv_j = M^-1 J_j^T``); the
+    same solve gives ``u = -M^-1 J_B^T x``, so ``dv_j + u`` is the velocity change of the
+    jointed bodies per unit impulse on row j and ``S_ij = J_i (dv_j + u) + cfm_i [i == j]``.
+    Returns False when the bilateral rows do not form a tree (or do not factorise)."""
+    bsel = np.empty(nb, np.int64)
+    cfm = np.empty(nb)
+    for u in range(nb):
+        bsel[u] = idx[bil[u]]
+        cfm[u] = rows.cfm[bsel[u]]
+    ok, plan = tree_plan(rows, bsel, nb, inv_mass, nbody)
+    if not ok or not tree_factor(plan, rows, bsel, cfm, inv_mass, inv_inertia, nbody):
+        return False
+    f = np.zeros((nbody, 6))
+    g = np.empty(nb)
+    x = np.empty(nb)
+    acc = np.zeros((nbody, 6))
+    for c in range(nn + 1):
+        if c < nn:
+            j = oth[c]
+            rj = idx[j]
+            for u in range(nb):
+                g[u] = -_row_dot_dv(rows, bsel[u], rows.body_a[rj], rows.body_b[rj], dv[j])
+        else:
+            for u in range(nb):
+                g[u] = -b[bil[u]]
+        tree_solve(plan, nbody, f, g, acc, x)
+        for u in range(nb):
+            X[u, c] = x[u]
+        if c < nn:
+            j = oth[c]
+            rj = idx[j]
+            for side in range(2):
+                body = rows.body_a[rj] if side == 0 else rows.body_b[rj]
+                if body >= 0:
+                    for k in range(6):
+                        acc[body, k] += dv[j, 6 * side + k]
+            for i in range(nn):
+                S[i, c] = row_dot(rows, idx[oth[i]], acc)
+            S[c, c] += rows.cfm[rj]
+        else:
+            for i in range(nn):
+                cvec[i] = b[oth[i]] + row_dot(rows, idx[oth[i]], acc)
+    return True
+
+
+@njit(cache=True, inline="always")
+def _row_dot_dv(rows, r, body_a, body_b, dv):
+    """``J_r`` times the velocity change ``dv`` (12,) of bodies ``body_a``, ``body_b``."""
+    s = 0.0
+    for side in range(2):
+        body = rows.body_a[r] if side == 0 else rows.body_b[r]
+        if body < 0:
+            continue
+        for side2 in range(2):
+            other = body_a if side2 == 0 else body_b
+            if other == body:
+                for k in range(6):
+                    s += rows.J[r, 6 * side + k] * dv[6 * side2 + k]
+    return s
+
+
+@njit(cache=True)
+def _schur_dense(rows, idx, n, bil, nb, oth, nn, inv_mass, inv_inertia, vel, angvel, X, S,
+                 cvec):
+    """The Schur complement from the dense ``A`` (loops of joints): one Cholesky
+    factorisation of ``A_BB``, then a solve per column. False if it is not positive
+    definite."""
+    dv = np.zeros((n, 12))
+    A = np.zeros((n, n))
+    b = np.zeros(n)
+    assemble(rows, idx, n, inv_mass, inv_inertia, vel, angvel, dv, A, b)
+    Abb = np.empty((nb, nb))
+    for u in range(nb):
+        for v in range(nb):
+            Abb[u, v] = A[bil[u], bil[v]]
+    work = np.zeros((nb, nb))
+    if not cholesky_factor(Abb, nb, work):
+        return False
+    col = np.empty(nb)
+    x = np.empty(nb)
+    for c in range(nn + 1):
+        for u in range(nb):
+            col[u] = A[bil[u], oth[c]] if c < nn else b[bil[u]]
+        cholesky_apply(work, col, nb, x)
+        for u in range(nb):
+            X[u, c] = x[u]
+    for i in range(nn):
+        for j in range(nn):
+            s = A[oth[i], oth[j]]
+            for u in range(nb):
+                s -= A[oth[i], bil[u]] * X[u, j]
+            S[i, j] = s
+        s = b[oth[i]]
+        for u in range(nb):
+            s -= A[oth[i], bil[u]] * X[u, nn]
+        cvec[i] = s
+    return True
