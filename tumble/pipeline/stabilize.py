@@ -13,6 +13,7 @@ exceeds a tolerance and ERP keeps small errors in check.
 import numpy as np
 from numba import njit
 
+from .._jit import noalloc
 from ..math.quat import quat_exp, quat_mul, quat_normalize
 from .joints.rows import build_joint_rows
 from .solvers.common import world_inverse_inertia
@@ -23,10 +24,22 @@ from .solvers.tree import tree_factor, tree_plan, tree_solve
 _REGULARISATION = 1e-10
 
 
-@njit(cache=True, inline="always")
-def _rigid(m, j):
-    """Soft joints (a spring, or their own CFM) are meant to give: never projected."""
-    return m.joint_stiffness[j] == 0.0 and m.joint_soft_damping[j] == 0.0 and m.joint_cfm[j] <= 0.0
+@noalloc
+def _rigid_core_rows(m, rows, idx):
+    """Count (and, if ``idx`` has room, list) the core rows of rigid joints: soft joints (a
+    spring, or their own CFM) are meant to give, so they are never projected. Their bodies
+    are written into ``rows`` as build_joint_rows writes them."""
+    n = 0
+    for j in range(m.joint_type.shape[0]):
+        if m.joint_stiffness[j] != 0.0 or m.joint_soft_damping[j] != 0.0 or m.joint_cfm[j] > 0.0:
+            continue
+        for r in range(m.joint_row_start[j], m.joint_row_start[j] + m.joint_core_rows[j]):
+            if n < idx.shape[0]:
+                idx[n] = r
+                rows.body_a[r] = m.joint_parent[j]
+                rows.body_b[r] = m.joint_child[j]
+            n += 1
+    return n
 
 
 @njit(cache=True)
@@ -38,36 +51,24 @@ def project_joints(m, pos, quat, vel, angvel, motor_target, rows, inv_inertia, i
     Each Gauss-Newton step solves ``(J M^-1 J^T + R) y = -C`` (R: the relative
     regularisation) in linear time over the joints' tree (``solvers/tree.py``), or densely
     when the joints form loops."""
-    nj = m.joint_type.shape[0]
-    n = 0
-    for j in range(nj):
-        if _rigid(m, j):
-            n += m.joint_core_rows[j]
+    n = _rigid_core_rows(m, rows, np.empty(0, np.int64))
     if n == 0:
         return
     idx = np.empty(n, np.int64)
-    k = 0
-    for j in range(nj):
-        if not _rigid(m, j):
-            continue
-        for r in range(m.joint_row_start[j], m.joint_row_start[j] + m.joint_core_rows[j]):
-            idx[k] = r
-            rows.body_a[r] = m.joint_parent[j]      # as build_joint_rows writes them
-            rows.body_b[r] = m.joint_child[j]
-            k += 1
+    _rigid_core_rows(m, rows, idx)
     nb = pos.shape[0]
     tree, plan = tree_plan(rows, idx, n, m.body_inv_mass, nb)
     nd = 0 if tree else n
-    dv = np.zeros((n, 12))
-    b = np.zeros(n)
-    A = np.zeros((nd, nd))
-    work = np.zeros((nd, nd))
-    reg = np.empty(n)
-    y = np.zeros(n)
-    u = np.zeros((nb, 6))
-    fzero = np.zeros((nb, 6))
-    zero = np.zeros_like(vel)
-    drot = np.zeros((nb, 3))
+    _project(m, pos, quat, motor_target, rows, inv_inertia, iterations, tolerance, idx, n,
+             tree, plan, np.zeros((n, 12)), np.zeros(n), np.zeros((nd, nd)), np.zeros((nd, nd)),
+             np.zeros(n), np.zeros(n), np.zeros((nb, 6)), np.zeros((nb, 6)), np.zeros_like(vel))
+
+
+@noalloc
+def _project(m, pos, quat, motor_target, rows, inv_inertia, iterations, tolerance, idx, n, tree,
+             plan, dv, b, A, work, reg, y, u, fzero, zero):
+    """The Gauss-Newton iterations of ``project_joints`` on its work arrays."""
+    nb = pos.shape[0]
     for it in range(iterations):
         # with h = 1 and ERP = 1 each core row's rhs is minus its position error
         build_joint_rows(m, pos, quat, zero, zero, motor_target, 1.0, 1.0, 0.0, rows)
@@ -111,8 +112,8 @@ def project_joints(m, pos, quat, vel, angvel, motor_target, rows, inv_inertia, i
         for body in range(nb):
             for c in range(3):
                 pos[body, c] += u[body, c]
-                drot[body, c] = u[body, 3 + c]
-            if drot[body, 0] != 0.0 or drot[body, 1] != 0.0 or drot[body, 2] != 0.0:
-                q = quat_normalize(quat_mul(quat_exp(drot[body]), quat[body]))
+            if u[body, 3] != 0.0 or u[body, 4] != 0.0 or u[body, 5] != 0.0:
+                q = quat_normalize(quat_mul(quat_exp((u[body, 3], u[body, 4], u[body, 5])),
+                                            quat[body]))
                 for c in range(4):
                     quat[body, c] = q[c]

@@ -20,7 +20,8 @@ from tumble.pipeline.joints.rows import build_joint_rows
 from tumble.pipeline.solvers.common import make_rows_nb, world_inverse_inertia
 from tumble.pipeline.solvers.direct import solve_active_set
 from tumble.pipeline.solvers.mlcp import mixed_lcp
-from tumble.pipeline.solvers.tree import tree_factor, tree_plan, tree_solve
+from tumble.pipeline.solvers.tree import (tree_factor, tree_inverse_mass_rows, tree_plan,
+                                         tree_solve)
 
 FAST = settings(max_examples=60, deadline=None)
 
@@ -279,3 +280,57 @@ def test_ragdoll_mixed_lcp_tree_matches_dense():
             assert_same(*out)
             seen += nrow > world.model.nrow
     assert seen > 0                                      # contacts were present
+
+
+@FAST
+@given(seed=st.integers(0, 2**32 - 1), nb=st.integers(2, 10), extra=st.integers(0, 3))
+def test_inverse_mass_of_jointed_bodies_matches_numpy(seed, nb, extra):
+    """``J_N M_B^-1 J_N^T`` from the root paths equals the dense Schur complement
+    ``J_N (M^-1 - M^-1 J_B^T A_BB^-1 J_B M^-1) J_N^T``, for contact-like rows between
+    any two bodies, the ground, and ``extra`` free bodies outside the tree."""
+    rng = np.random.default_rng(seed)
+    parents = [-1] + [int(rng.integers(0, i)) for i in range(1, nb)] + [None] * extra
+    rows, nrow, im, ii = random_system(rng, parents, bounds=False)
+    nbody = nb + extra
+    ncol = int(rng.integers(1, 8))
+    cols = make_rows_nb(ncol)
+    for c in range(ncol):
+        a, b = rng.choice(np.arange(-1, nbody), size=2, replace=False)
+        cols.body_a[c], cols.body_b[c] = a, b
+        cols.J[c] = rng.normal(size=12)
+    Minv = np.zeros((6 * nbody, 6 * nbody))
+    for b in range(nbody):
+        Minv[6 * b:6 * b + 3, 6 * b:6 * b + 3] = im[b] * np.eye(3)
+        Minv[6 * b + 3:6 * b + 6, 6 * b + 3:6 * b + 6] = ii[b]
+
+    def jac(rs, count):
+        J = np.zeros((count, 6 * nbody))
+        for r in range(count):
+            for side, body in ((0, rs.body_a[r]), (1, rs.body_b[r])):
+                if body >= 0:
+                    J[r, 6 * body:6 * body + 6] += rs.J[r, 6 * side:6 * side + 6]
+        return J
+    JB, JN = jac(rows, nrow), jac(cols, ncol)
+    ABB = JB @ Minv @ JB.T + np.diag(rows.cfm)
+    MB = Minv - Minv @ JB.T @ np.linalg.solve(ABB, JB @ Minv)
+    expected = JN @ MB @ JN.T
+    # the tree solver sees both row sets in one Rows: bilateral first, then the others
+    allrows = make_rows_nb(nrow + ncol)
+    for field, src_b, src_n in zip(allrows, rows, cols):
+        field[:nrow] = src_b
+        field[nrow:] = src_n
+    sel = np.arange(nrow)
+    ok, plan = tree_plan(allrows, sel, nrow, im, nbody)
+    assert ok and tree_factor(plan, allrows, sel, rows.cfm.copy(), im, ii, nbody)
+    dv = (Minv @ JN.T).T                                  # M^-1 J^T of each column row...
+    dvc = np.zeros((ncol, 12))                            # ...as the solver stores it
+    for c in range(ncol):
+        for side, body in ((0, cols.body_a[c]), (1, cols.body_b[c])):
+            if body >= 0:
+                dvc[c, 6 * side:6 * side + 6] = dv[c, 6 * body:6 * body + 6]
+    nnode = nbody + nrow
+    out = np.zeros((ncol, ncol))
+    tree_inverse_mass_rows(plan, allrows, np.arange(nrow, nrow + ncol), ncol, dvc, nbody,
+                           np.zeros((ncol, 6 * nbody + nrow)), np.zeros((ncol, nnode), bool),
+                           np.zeros((ncol, nnode), np.int64), np.zeros(ncol, np.int64), out)
+    np.testing.assert_allclose(out, expected, rtol=0, atol=1e-9 * np.abs(expected).max())

@@ -14,8 +14,8 @@ and critical damping ``C = 2 sqrt(K m)`` (so ``C h / m = 1``): ``k = m / (16 h^2
 """
 import math
 
-from numba import njit
 
+from ..._jit import noalloc
 from .rows import lever, relative_velocity, tangents
 
 
@@ -24,7 +24,7 @@ def default_penalty(lightest_mass, h):
     return lightest_mass / (16.0 * h * h), lightest_mass / (4.0 * h)
 
 
-@njit(cache=True)
+@noalloc
 def penalty_forces(pos, vel, angvel, con, count, k, c, v_slip, h, force, torque):
     """Add the contact forces (N) and their torques about each COM to ``force``/``torque``;
     each contact's ``impulse`` becomes its force times ``h`` (normal, tangent 1, tangent 2)."""

@@ -11,6 +11,7 @@ import math
 
 from numba import njit
 
+from ..._jit import noalloc
 from ..joints.common import INF, linear_row
 
 
@@ -36,7 +37,7 @@ def lever(pos, b, p):
     return (p[0] - pos[b, 0], p[1] - pos[b, 1], p[2] - pos[b, 2])
 
 
-@njit(cache=True)
+@noalloc
 def relative_velocity(vel, angvel, a, b, r_a, r_b):
     """Velocity of B's material point minus A's at the contact, world frame."""
     x = y = z = 0.0
@@ -53,7 +54,7 @@ def relative_velocity(vel, angvel, a, b, r_a, r_b):
     return (x, y, z)
 
 
-@njit(cache=True)
+@noalloc
 def build_contact_rows(pos, vel, angvel, con, count, r0, h, erp, cfm, slop, bounce_threshold,
                        rows, impulse):
     """Rows ``r0 + 3c .. r0 + 3c + 2`` for contact c; warm-start impulses into ``impulse``."""
@@ -85,7 +86,7 @@ def build_contact_rows(pos, vel, angvel, con, count, r0, h, erp, cfm, slop, boun
             impulse[r + k] = con.impulse[c, k]
 
 
-@njit(cache=True)
+@noalloc
 def store_contact_impulses(con, count, r0, impulse):
     """Keep each contact's solved impulses (for reporting and the next warm start)."""
     for c in range(count):

@@ -15,12 +15,14 @@ reported.
 import numpy as np
 from numba import njit
 
-from .common import apply_impulse, minv_jt, row_active, row_velocity
+from ..._jit import noalloc
+from .common import (active_rows, apply_impulse, apply_impulses, minv_jt, row_active,
+                     row_velocity)
 from .pgs import solve_pgs
 from .tree import tree_factor, tree_plan, tree_solve
 
 
-@njit(cache=True)
+@noalloc
 def cholesky_factor(a, n, work):
     """Lower Cholesky factor of the symmetric positive definite ``a[:n, :n]`` into ``work``.
     Returns False when ``a`` is not positive definite (to working precision)."""
@@ -38,7 +40,7 @@ def cholesky_factor(a, n, work):
     return True
 
 
-@njit(cache=True)
+@noalloc
 def cholesky_apply(work, b, n, x):
     """``x[:n] = (L L^T)^-1 b[:n]`` with the factor ``L`` of ``cholesky_factor``."""
     for i in range(n):
@@ -67,7 +69,7 @@ def cholesky_solve(a, b, n, work):
     return x, True
 
 
-@njit(cache=True)
+@noalloc
 def row_responses(rows, idx, n, inv_mass, inv_inertia, vel, angvel, dv, b):
     """Fill ``dv`` (n, 12) with ``M^-1 J^T`` and ``b`` (n,) with ``rhs - J v`` for the rows
     ``idx[:n]``."""
@@ -77,7 +79,7 @@ def row_responses(rows, idx, n, inv_mass, inv_inertia, vel, angvel, dv, b):
         b[i] = rows.rhs[ri] - row_velocity(rows, ri, vel, angvel)
 
 
-@njit(cache=True)
+@noalloc
 def assemble(rows, idx, n, inv_mass, inv_inertia, vel, angvel, dv, A, b):
     """Fill ``dv`` (n, 12) with ``M^-1 J^T``, ``A`` (n, n) with ``J M^-1 J^T + CFM`` and
     ``b`` (n,) with ``rhs - J v`` for the rows ``idx[:n]``."""
@@ -103,7 +105,7 @@ def assemble(rows, idx, n, inv_mass, inv_inertia, vel, angvel, dv, A, b):
         A[i, i] += rows.cfm[ri]
 
 
-@njit(cache=True)
+@noalloc
 def accumulate_response(rows, idx, n, dv, p, state, clamped_only, acc):
     """``acc`` (nbody, 6) = sum of ``dv[i] p[i]`` over the rows (only those with
     ``state[i] != 0`` if ``clamped_only``): the velocity change [linear, angular] of the
@@ -152,13 +154,8 @@ def solve_active_set(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, to
                      allow_tree):
     """``solve_direct``; with ``allow_tree`` False always factorise densely (reference)."""
     idx = np.empty(nrow, np.int64)
-    n = 0
-    for r in range(nrow):
-        if row_active(rows, r):
-            idx[n] = r
-            n += 1
-        else:
-            impulse[r] = 0.0
+    where = np.empty(nrow, np.int64)
+    n = active_rows(rows, nrow, idx, where, impulse)
     if n == 0:
         return 0
     nbody = vel.shape[0]
@@ -166,26 +163,31 @@ def solve_active_set(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, to
     b = np.zeros(n)
     tree, plan = tree_plan(rows, idx, n, inv_mass, nbody)
     tree = tree and allow_tree
+    nd = 0 if tree else n
+    A = np.zeros((nd, nd))
     if tree:
         row_responses(rows, idx, n, inv_mass, inv_inertia, vel, angvel, dv, b)
-        A = np.zeros((0, 0))
     else:
-        A = np.zeros((n, n))
         assemble(rows, idx, n, inv_mass, inv_inertia, vel, angvel, dv, A, b)
-    # state: 0 free, -1 clamped at lo, +1 clamped at hi
-    state = np.zeros(n, np.int64)
-    p = np.zeros(n)
-    cfm = np.empty(n)
+    iters = _active_set(rows, idx, n, inv_mass, inv_inertia, vel, angvel, impulse, tolerance,
+                        tree, plan, A, dv, b, np.zeros(n, np.int64), np.zeros(n),
+                        np.empty(n), np.empty(n, np.int64), np.zeros((nd, nd)), np.zeros(n),
+                        np.zeros(n), np.zeros((nd, nd)), np.zeros((nbody, 6)),
+                        np.zeros((nbody, 6)))
+    if iters > 0:
+        return iters
+    _polish(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, tolerance)
+    return iters
+
+
+@noalloc
+def _active_set(rows, idx, n, inv_mass, inv_inertia, vel, angvel, impulse, tolerance, tree,
+                plan, A, dv, b, state, p, cfm, free, sub, rhs, x, work, acc, fzero):
+    """The active-set iterations of ``solve_active_set`` on its work arrays; applies the
+    impulses. Returns the iteration count, negated when it did not converge."""
+    nbody = vel.shape[0]
     for i in range(n):
         cfm[i] = rows.cfm[idx[i]]
-    free = np.empty(n, np.int64)
-    nd = 0 if tree else n
-    sub = np.zeros((nd, nd))
-    rhs = np.zeros(n)
-    x = np.zeros(n)
-    work = np.zeros((nd, nd))
-    acc = np.zeros((nbody, 6))
-    fzero = np.zeros((nbody, 6))
     iters = 0
     converged = False
     for it in range(4 * n + 20):
@@ -259,22 +261,23 @@ def solve_active_set(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, to
         state[worst_i] = 0
     for i in range(n):
         r = idx[i]
-        pi = min(max(p[i], rows.lo[r]), rows.hi[r])
-        impulse[r] = pi
-        apply_impulse(rows, r, dv[i], pi, vel, angvel)
-    if converged:
-        return iters
-    _polish(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, tolerance)
-    return -iters
+        p[i] = min(max(p[i], rows.lo[r]), rows.hi[r])
+        impulse[r] = p[i]
+    apply_impulses(rows, idx, n, dv, p, vel, angvel)
+    return iters if converged else -iters
 
 
 @njit(cache=True)
 def _polish(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, tolerance):
     """PGS sweeps that continue from the impulses already applied to the velocities."""
-    # The velocities already include the impulses: take them out, then warm-start PGS.
-    dv = np.zeros(12)
+    _unapply(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, np.zeros(12))
+    solve_pgs(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, 200, tolerance, True)
+
+
+@noalloc
+def _unapply(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, dv):
+    """Take the impulses back out of the velocities (PGS then warm-starts from them)."""
     for r in range(nrow):
         if row_active(rows, r) and impulse[r] != 0.0:
             minv_jt(rows, r, inv_mass, inv_inertia, dv)
             apply_impulse(rows, r, dv, -impulse[r], vel, angvel)
-    solve_pgs(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, 200, tolerance, True)

@@ -46,6 +46,7 @@ TreePlan = namedtuple("TreePlan", [
     "pair_body",   # (n, 2) int64 the pair's dynamic bodies, -1 for ground
     "order",       # (nbody + n,) int64 nodes, parents before children; bodies 0..nbody-1,
                    # pair p is node nbody + p
+    "opos",        # (nbody + n,) int64 position of each node in `order` (-1: not in it)
     "parent",      # (nbody + n,) int64 parent node, -1 for a root
     "fac_off",     # (nbody + n,) int64 offset of each node's factor in `fac`
     "z_off",       # (nbody + n,) int64 offset of each node's unknowns in the solution vector
@@ -57,6 +58,7 @@ TreePlan = namedtuple("TreePlan", [
     "row_z",       # (n,) int64 position of each row's unknown in `z` (-1: not in use)
     "use",         # (n,) int64 1 when a row takes part in the factorisation
     "z",           # (6 nbody + n,) float64 right-hand side, then solution
+    "dinv",        # (6 nbody + n,) float64 1 / diagonal of each node's factor, at z_off
 ])
 
 
@@ -178,19 +180,23 @@ def tree_plan(rows, sel, n, inv_mass, nbody):
                         order[norder] = v
                         norder += 1
     meta = np.array([npair, norder, maxdim], np.int64)
-    return True, TreePlan(meta, pair_rows, pair_start, pair_body, order, parent,
+    opos = np.full(nnode, -1, np.int64)
+    for t in range(norder):
+        opos[order[t]] = t
+    return True, TreePlan(meta, pair_rows, pair_start, pair_body, order, opos, parent,
                           np.zeros(nnode, np.int64), np.zeros(nnode, np.int64),
                           np.zeros(nnode, np.int64), np.zeros(fac_size),
                           np.zeros(nnode, np.int64), np.zeros(12 * max(n, 1)),
                           np.full(nnode, -1, np.int64), np.full(max(n, 1), -1, np.int64),
-                          np.ones(max(n, 1), np.int64), np.zeros(6 * nbody + n))
+                          np.ones(max(n, 1), np.int64), np.zeros(6 * nbody + n),
+                          np.zeros(6 * nbody + n))
 
 
 @njit(cache=True)
 def _empty_plan():
     z = np.zeros(1, np.int64)
-    return TreePlan(np.zeros(3, np.int64), z, z, np.zeros((1, 2), np.int64), z, z, z, z, z,
-                    np.zeros(1), z, np.zeros(1), z, z, z, np.zeros(1))
+    return TreePlan(np.zeros(3, np.int64), z, z, np.zeros((1, 2), np.int64), z, z, z, z, z, z,
+                    np.zeros(1), z, np.zeros(1), z, z, z, np.zeros(1), np.zeros(1))
 
 
 @njit(cache=True, inline="always")
@@ -200,9 +206,10 @@ def _joff(rows, r, b):
 
 
 @noalloc
-def _chol(a, off, d):
-    """In-place Cholesky of the d x d row-major block at ``a[off:]`` (lower triangle).
-    False if not positive definite."""
+def _chol(a, off, d, dinv, doff):
+    """In-place Cholesky of the d x d row-major block at ``a[off:]`` (lower triangle), the
+    reciprocals of its diagonal into ``dinv[doff:]`` (multiplying beats dividing in the
+    substitutions). False if not positive definite."""
     for i in range(d):
         for k in range(i + 1):
             s = a[off + i * d + k]
@@ -212,8 +219,9 @@ def _chol(a, off, d):
                 if s <= 1e-300:
                     return False
                 a[off + i * d + i] = np.sqrt(s)
+                dinv[doff + i] = 1.0 / a[off + i * d + i]
             else:
-                a[off + i * d + k] = s / a[off + k * d + k]
+                a[off + i * d + k] = s * dinv[doff + k]
     return True
 
 
@@ -306,7 +314,7 @@ def tree_factor(plan, rows, sel, cfm, inv_mass, inv_inertia, nbody):
         if d == 0:
             continue
         lo = foff[u]
-        if not _chol(fac, lo, d):
+        if not _chol(fac, lo, d, plan.dinv, zoff[u]):
             return False
         pa = plan.eparent[u]
         if pa < 0:
@@ -314,12 +322,14 @@ def tree_factor(plan, rows, sel, cfm, inv_mass, inv_inertia, nbody):
         dp = dim[pa]
         wo = plan.w_off[u]
         _coupling(plan, rows, sel, u, pa, nbody, wm, wo, dp)
-        for c in range(dp):
-            for i in range(d):
+        di = zoff[u]
+        for i in range(d):
+            inv = plan.dinv[di + i]
+            for c in range(dp):
                 s = wm[wo + i * dp + c]
                 for k in range(i):
                     s -= fac[lo + i * d + k] * wm[wo + k * dp + c]
-                wm[wo + i * dp + c] = s / fac[lo + i * d + i]
+                wm[wo + i * dp + c] = s * inv
         op = foff[pa]
         for a in range(dp):
             for c in range(a + 1):
@@ -371,6 +381,7 @@ def tree_solve(plan, nbody, f, g, u_out, y_out):
     """
     norder = plan.meta[1]
     z, fac, dim, foff, zoff, wm = plan.z, plan.fac, plan.dim, plan.fac_off, plan.z_off, plan.wmat
+    dinv = plan.dinv
     for t in range(norder):
         u = plan.order[t]
         if u < nbody:
@@ -393,7 +404,7 @@ def tree_solve(plan, nbody, f, g, u_out, y_out):
             s = z[o + i]
             for k in range(i):
                 s -= fac[lo + i * d + k] * z[o + k]
-            z[o + i] = s / fac[lo + i * d + i]
+            z[o + i] = s * dinv[o + i]
         pa = plan.eparent[u]
         if pa < 0:
             continue
@@ -428,7 +439,7 @@ def tree_solve(plan, nbody, f, g, u_out, y_out):
             s = z[o + i]
             for k in range(i + 1, d):
                 s -= fac[lo + k * d + i] * z[o + k]
-            z[o + i] = s / fac[lo + i * d + i]
+            z[o + i] = s * dinv[o + i]
         if u >= nbody:
             for i in range(d):
                 z[o + i] = -z[o + i]
@@ -443,3 +454,97 @@ def tree_solve(plan, nbody, f, g, u_out, y_out):
                 u_out[u, k] = z[o + k]
     for i in range(n):
         y_out[i] = z[plan.row_z[i]] if plan.row_z[i] >= 0 else 0.0
+
+
+@noalloc
+def tree_inverse_mass_rows(plan, rows, cols, ncol, dv, nbody, zc, member, path, plen, out):
+    """``out[a, b] = J_a M_B^-1 J_b^T`` for the rows ``cols[:ncol]`` (no CFM added).
+
+    ``M_B^-1`` is the inverse mass of the bodies under the rows factorised in ``plan``:
+    for bodies in the tree, the top-left block of ``K^-1``; for others, their own inverse
+    mass (``dv`` (ncol, 12): ``M^-1 J^T`` of each row). With ``K = L D L^T``,
+    ``f_a^T K^-1 f_b = sum over nodes u of s_u h_a,u . h_b,u``, ``h = L^-1 f``, and
+    ``h_a`` is non-zero only on the paths from row a's bodies to their root, so each row
+    costs its path and each pair of rows their common path: no full solve per row.
+
+    Work arrays: zc (ncol, 6 nbody + n) float64, member (ncol, nbody + n) bool, both
+    zero on entry and left zero; path (ncol, nbody + n) int64; plen (ncol,) int64.
+    """
+    dim, zoff, foff, fac, wm = plan.dim, plan.z_off, plan.fac_off, plan.fac, plan.wmat
+    for a in range(ncol):
+        r = cols[a]
+        plen[a] = 0
+        for side in range(2):
+            b = rows.body_a[r] if side == 0 else rows.body_b[r]
+            if b < 0 or dim[b] != 6:
+                continue                         # ground, or a body outside the tree
+            for k in range(6):
+                zc[a, zoff[b] + k] += rows.J[r, 6 * side + k]
+            u = b
+            while u >= 0 and not member[a, u]:
+                member[a, u] = True
+                path[a, plen[a]] = u
+                plen[a] += 1
+                u = plan.eparent[u]
+        # children before parents: sort the path by position in the order, last first
+        m = plen[a]
+        for i in range(1, m):
+            v = path[a, i]
+            k = i - 1
+            while k >= 0 and plan.opos[path[a, k]] < plan.opos[v]:
+                path[a, k + 1] = path[a, k]
+                k -= 1
+            path[a, k + 1] = v
+        for t in range(m):
+            u = path[a, t]
+            d = dim[u]
+            o = zoff[u]
+            lo = foff[u]
+            for i in range(d):
+                acc = zc[a, o + i]
+                for k in range(i):
+                    acc -= fac[lo + i * d + k] * zc[a, o + k]
+                zc[a, o + i] = acc * plan.dinv[o + i]
+            pa = plan.eparent[u]
+            if pa < 0:
+                continue
+            dp = dim[pa]
+            op = zoff[pa]
+            wo = plan.w_off[u]
+            sign = 1.0 if u < nbody else -1.0
+            for c in range(dp):
+                acc = 0.0
+                for i in range(d):
+                    acc += wm[wo + i * dp + c] * zc[a, o + i]
+                zc[a, op + c] -= sign * acc
+    for a in range(ncol):
+        ra = cols[a]
+        for bb in range(a + 1):
+            rb = cols[bb]
+            acc = 0.0
+            for t in range(plen[a]):
+                u = path[a, t]
+                if member[bb, u]:
+                    o = zoff[u]
+                    dot = 0.0
+                    for k in range(dim[u]):
+                        dot += zc[a, o + k] * zc[bb, o + k]
+                    acc += dot if u < nbody else -dot
+            # bodies outside the tree: their own inverse mass
+            for sa in range(2):
+                body = rows.body_a[ra] if sa == 0 else rows.body_b[ra]
+                if body < 0 or dim[body] == 6:
+                    continue
+                for sb in range(2):
+                    other = rows.body_a[rb] if sb == 0 else rows.body_b[rb]
+                    if other == body:
+                        for k in range(6):
+                            acc += rows.J[ra, 6 * sa + k] * dv[bb, 6 * sb + k]
+            out[a, bb] = acc
+            out[bb, a] = acc
+    for a in range(ncol):
+        for t in range(plen[a]):
+            u = path[a, t]
+            member[a, u] = False
+            for k in range(dim[u]):
+                zc[a, zoff[u] + k] = 0.0
