@@ -24,6 +24,7 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
+from .._jit import noalloc
 from .collide import COLLIDE_OK, COLLIDE_PAIRS_FULL, collide_world
 from .contacts.arrays import ContactArrays, make_contacts_nb
 from .contacts.pairs import ROWS_SPIN, rows_per_contact
@@ -92,7 +93,7 @@ STATE_OK, STATE_NONFINITE_POS, STATE_NONFINITE_QUAT, STATE_ZERO_QUAT, \
     STATE_NONFINITE_TORQUE = range(8)
 
 
-@njit(cache=True)
+@noalloc
 def check_state(s):
     """Validate a state before stepping; normalise its quaternions.
 
