@@ -10,6 +10,7 @@ from .model.validate import positive
 from .pipeline import step as pipeline_step
 from .pipeline.contacts.arrays import make_contacts
 from .pipeline.contacts.penalty import default_penalty
+from .pipeline.parallel import step_worlds_parallel
 from .pipeline.queries import distance_between, raycast_scene
 from .pipeline.integrate import GYRO_EXPLICIT, GYRO_IMPLICIT, GYRO_NONE, QUAT_EXP, QUAT_LINEAR
 
@@ -103,6 +104,9 @@ class World:
     slip_velocity : penalty friction's regularisation speed (m/s); default ``|g| dt``.
     projection_tolerance : largest row error (m, rad) past which projection runs; below it ERP
         alone pulls joints together, which dissipates less.
+    parallel : step the worlds of a batch on all of Numba's threads (``numba.set_num_threads``
+        sets how many), each world bit-identical to the serial path. Default: when
+        ``nworld > 1``.
 
     The state arrays ``body_pos``, ``body_quat``, ``body_vel``, ``body_angvel`` are live
     views: write into them between steps to set the state.
@@ -113,7 +117,7 @@ class World:
                  cfm=1e-10, iterations=300, tolerance=1e-12, warm_start=True, projection=2,
                  projection_tolerance=5e-5, contact_erp=0.2, contact_cfm=0.0, slop=1e-4,
                  bounce_threshold=0.2, penalty_stiffness=None, penalty_damping=None,
-                 slip_velocity=None, contact_margin=0.01):
+                 slip_velocity=None, contact_margin=0.01, parallel=None):
         if not isinstance(model, Model):
             raise ModelError(f"World needs a tumble Model, got {type(model).__name__}")
         self.model = model
@@ -168,6 +172,9 @@ class World:
         self.slip_velocity = None if slip_velocity is None else positive(
             slip_velocity, "world", "slip_velocity")
         self.nworld = int(nworld)
+        if parallel is not None and not isinstance(parallel, (bool, np.bool_)):
+            raise ModelError(f"world: parallel must be True, False or None, got {parallel!r}")
+        self.parallel = self.nworld > 1 if parallel is None else bool(parallel)
         nb, nw, nj = model.nbody, self.nworld, model.njoint
         self._state = pipeline_step.StateArrays(
             body_pos=np.zeros((nw, nb, 3)), body_quat=np.zeros((nw, nb, 4)),
@@ -316,7 +323,8 @@ class World:
         self._enforce_static()
         options = self._options()
         while True:
-            status, w, k, b, needed = pipeline_step.step_worlds(
+            stepper = step_worlds_parallel if self.parallel else pipeline_step.step_worlds
+            status, w, k, b, needed = stepper(
                 self.model.arrays, s, self._contacts, self._pairs, int(n), options)
             if status == pipeline_step.STEP_MORE_PAIRS:
                 self._pairs = np.zeros((2 * needed, 2), np.int32)

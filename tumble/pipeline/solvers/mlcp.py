@@ -181,7 +181,8 @@ def mixed_lcp(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, max_pivot
 @njit(cache=True)
 def _no_plan(inv_mass):
     """An empty plan, to give the variable its type when the tree path is not taken."""
-    return tree_plan(make_rows_nb(0), np.empty(0, np.int64), 0, inv_mass, 0)[1]
+    zero = np.int64(0)          # not a literal: the same compiled tree_plan as the others
+    return tree_plan(make_rows_nb(zero), np.empty(zero, np.int64), zero, inv_mass, zero)[1]
 
 
 @njit(cache=True)
