@@ -58,7 +58,7 @@ def mixed_lcp(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, max_pivot
     b = np.zeros(n)
     row_responses(rows, idx, n, inv_mass, inv_inertia, vel, angvel, dv, b)
     kind = np.empty(n, np.int64)
-    nb = 0
+    nb = np.int64(0)                 # not a literal: one compilation of its callees
     for i in range(n):
         r = idx[i]
         if rows.parent[r] >= 0:
