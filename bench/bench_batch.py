@@ -21,6 +21,7 @@ world-steps per second; and each tumble path's time over each MuJoCo path's (abo
 tumble is slower). Compilation is outside the timings (a throwaway batch is stepped first).
 """
 import argparse
+import importlib.util
 import json
 import sys
 import time
@@ -139,11 +140,7 @@ def main():
     ap.add_argument("--json", default=None)
     args = ap.parse_args()
     nthread = numba.get_num_threads()
-    try:
-        import mujoco  # noqa: F401
-        have_mujoco = True
-    except ImportError:
-        have_mujoco = False
+    have_mujoco = importlib.util.find_spec("mujoco") is not None
     rows = []
     print(f"threads: {nthread} (Numba and MuJoCo rollout)")
     print(f"{'scene':11s} {'N':>4s} {'engine':22s} {'us/world-step':>14s} {'world-steps/s':>14s}")
