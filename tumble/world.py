@@ -13,6 +13,7 @@ from .model.validate import positive
 from .pipeline import step as pipeline_step
 from .pipeline.contacts.arrays import ContactArrays, make_contacts
 from .pipeline.contacts.penalty import default_penalty
+from .pipeline.parallel import step_worlds_parallel
 from .pipeline.queries import distance_between, raycast_scene
 from .pipeline.actuators import PD_MODES
 from .pipeline.collision.broadphase import BROADPHASES
@@ -180,6 +181,9 @@ class World:
         (hashed uniform grid, cell twice the median AABB size; planes, walls and
         heightfields kept out of it). Both give exactly the same pairs, so the contacts and
         the motion do not depend on it, only the time; may be changed between steps.
+    parallel : step the worlds of a batch on all of Numba's threads (``numba.set_num_threads``
+        sets how many), each world bit-identical to the serial path. Default: when
+        ``nworld > 1``.
 
     The state arrays ``body_pos``, ``body_quat``, ``body_vel``, ``body_angvel`` are live
     views: write into them between steps to set the state.
@@ -191,7 +195,7 @@ class World:
                  projection_tolerance=5e-5, contact_erp=0.2, contact_cfm=0.0, slop=1e-4,
                  bounce_threshold=0.2, penalty_stiffness=None, penalty_damping=None,
                  slip_velocity=None, contact_margin=0.01, pd="implicit",
-                 broadphase="sap"):
+                 broadphase="sap", parallel=None):
         if not isinstance(model, Model):
             raise ModelError(f"World needs a tumble Model, got {type(model).__name__}")
         self.model = model
@@ -250,6 +254,9 @@ class World:
         if contact == "penalty":
             self._warn_stiff_geoms()
         self.nworld = int(nworld)
+        if parallel is not None and not isinstance(parallel, (bool, np.bool_)):
+            raise ModelError(f"world: parallel must be True, False or None, got {parallel!r}")
+        self.parallel = self.nworld > 1 if parallel is None else bool(parallel)
         nb, nw, nj = model.nbody, self.nworld, model.njoint
         self._state = pipeline_step.StateArrays(
             body_pos=np.zeros((nw, nb, 3)), body_quat=np.zeros((nw, nb, 4)),
@@ -561,7 +568,8 @@ class World:
         self._enforce_static()
         options = self._options()
         while True:
-            status, w, k, b, needed = pipeline_step.step_worlds(
+            stepper = step_worlds_parallel if self.parallel else pipeline_step.step_worlds
+            status, w, k, b, needed = stepper(
                 self.model.arrays, s, self._contacts, self._pairs, int(n), options)
             if status == pipeline_step.STEP_MORE_PAIRS:
                 self._pairs = np.zeros((2 * needed, 2), np.int32)

@@ -96,7 +96,8 @@ def collide_world(m, pos, quat, gpos, gquat, aabb_lo, aabb_hi, pairs, con, prev_
     if npair > pairs.shape[0]:
         return COLLIDE_PAIRS_FULL, npair
     cap = con.depth.shape[0]
-    count = 0
+    # np.int64, not 0: a loop-carried literal would compile every pair routine twice
+    count = np.int64(0)
     p = 0                                   # cursor into the previous contacts
     for i in range(npair):
         ga, gb = pairs[i, 0], pairs[i, 1]

@@ -8,7 +8,6 @@ to the largest impulse) and the same number of active-set iterations; graphs wit
 must be refused by the planner and still solved (densely).
 """
 import numpy as np
-import pytest
 from hypothesis import given, settings, strategies as st
 
 import tumble

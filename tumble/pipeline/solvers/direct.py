@@ -271,7 +271,9 @@ def _active_set(rows, idx, n, inv_mass, inv_inertia, vel, angvel, impulse, toler
 def _polish(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, tolerance):
     """PGS sweeps that continue from the impulses already applied to the velocities."""
     _unapply(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, np.zeros(12))
-    solve_pgs(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, 200, tolerance, True)
+    # (np.int64 / np.bool_: typed like the step's own call, so no second compilation)
+    solve_pgs(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, np.int64(200), tolerance,
+              np.bool_(True))
 
 
 @noalloc

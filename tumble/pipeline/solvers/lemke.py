@@ -384,7 +384,7 @@ def lemke(M, q, max_iter, pivot_tol, z_out):
                 return LEMKE_BAD_INPUT, 0
             scale_m = max(scale_m, abs(a))
     scale_q = 0.0
-    r0 = -1
+    r0 = np.int64(-1)                  # not a literal: one compilation of _path
     for i in range(n):
         if not np.isfinite(q[i]):
             return LEMKE_BAD_INPUT, 0

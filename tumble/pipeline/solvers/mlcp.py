@@ -59,7 +59,7 @@ def mixed_lcp(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, max_pivot
     b = np.zeros(n)
     row_responses(rows, idx, n, inv_mass, inv_inertia, vel, angvel, dv, b)
     kind = np.empty(n, np.int64)
-    nb = 0
+    nb = np.int64(0)                 # not a literal: one compilation of its callees
     for i in range(n):
         r = idx[i]
         if rows.parent[r] >= 0:
@@ -183,7 +183,8 @@ def mixed_lcp(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, max_pivot
 @njit(cache=True)
 def _no_plan(inv_mass):
     """An empty plan, to give the variable its type when the tree path is not taken."""
-    return tree_plan(make_rows_nb(0), np.empty(0, np.int64), 0, inv_mass, 0)[1]
+    zero = np.int64(0)          # not a literal: the same compiled tree_plan as the others
+    return tree_plan(make_rows_nb(zero), np.empty(zero, np.int64), zero, inv_mass, zero)[1]
 
 
 @njit(cache=True)
