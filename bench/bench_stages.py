@@ -33,7 +33,11 @@ if __package__ in (None, ""):
 import tumble  # noqa: E402
 from tumble.pipeline import step as P  # noqa: E402
 from tumble.pipeline.collide import COLLIDE_OK, collide_world  # noqa: E402
+from tumble.pipeline.actuators import (PD_EXPLICIT, PD_IMPLICIT, PD_STABLE,  # noqa: E402
+                                       actuator_forces, body_servo_rows, servoed_bodies,
+                                       stable_servo_forces)
 from tumble.pipeline.contacts.arrays import ContactArrays, make_contacts_nb  # noqa: E402
+from tumble.pipeline.contacts.pairs import ROWS_SPIN, rows_per_contact  # noqa: E402
 from tumble.pipeline.contacts.penalty import penalty_forces  # noqa: E402
 from tumble.pipeline.contacts.rows import build_contact_rows, store_contact_impulses  # noqa: E402
 from tumble.pipeline.forces import accumulate_forces  # noqa: E402
@@ -41,6 +45,7 @@ from tumble.pipeline.integrate import (first_bad_body, integrate_positions,  # n
                                        integrate_velocities)
 from tumble.pipeline.joints.rows import (build_joint_rows, joint_coordinates,  # noqa: E402
                                          joint_reactions)
+from tumble.pipeline.joints.servo import JointDrive  # noqa: E402
 from tumble.pipeline.solvers.common import (make_rows_nb, row_active,  # noqa: E402
                                             world_inverse_inertia)
 from tumble.pipeline.solvers.direct import assemble  # noqa: E402
@@ -52,7 +57,8 @@ _clock_gettime.argtypes = [ctypes.c_int, ctypes.c_void_p]
 _clock_gettime.restype = ctypes.c_int
 _CLOCK_MONOTONIC = 1
 
-STAGES = ["collide", "forces", "integrate_velocities", "joint_rows", "contact_rows",
+STAGES = ["collide", "forces_and_actuators", "integrate_velocities", "joint_and_servo_rows",
+          "contact_rows",
           "inverse_inertia", "solve", "reactions", "integrate_positions", "project_joints",
           "divergence_check", "joint_coordinates"]
 # parts of the solve, timed separately on copies of the same inputs (not in the total)
@@ -96,7 +102,10 @@ def profiled_steps(m, s, con, pairs, n, o, t_stage, t_part, counts):
     force = np.empty((nb, 3))
     torque = np.empty((nb, 3))
     inv_inertia = np.zeros((nb, 3, 3))
-    ncap = njrow + (3 * cap if o.contact != P.CONTACT_PENALTY else 0)
+    servoed = servoed_bodies(s.body_servo)
+    nfix = njrow + 6 * servoed.shape[0]
+    nper = rows_per_contact(m)
+    ncap = nfix + (nper * cap if o.contact != P.CONTACT_PENALTY else 0)
     rows = make_rows_nb(ncap)
     imp = np.zeros(ncap)
     gpos = np.zeros((ng, 3))
@@ -104,11 +113,19 @@ def profiled_steps(m, s, con, pairs, n, o, t_stage, t_part, counts):
     aabb_lo = np.zeros((ng, 3))
     aabb_hi = np.zeros((ng, 3))
     prev = make_contacts_nb(cap)
+    vel_pred = np.empty((nb, 3))
+    angvel_pred = np.empty((nb, 3))
+    has_servo = np.any(s.pd_kp > 0.0) or np.any(s.pd_kd > 0.0)
+    has_drives = m.act_joint.shape[0] > 0 or np.any(s.joint_applied != 0.0) or (
+        o.pd_mode == PD_EXPLICIT and has_servo)
     w = 0
     pos, quat = s.body_pos[w], s.body_quat[w]
     vel, angvel = s.body_vel[w], s.body_angvel[w]
     cw = ContactArrays(con.geom[w], con.body[w], con.point[w], con.normal[w], con.depth[w],
                        con.feature[w], con.friction[w], con.restitution[w], con.impulse[w])
+    drive = JointDrive(s.motor_target[w], s.pd_kp[w], s.pd_kd[w], s.pd_max[w],
+                       s.pd_target_quat[w], s.pd_target_q[w], s.pd_target_qd[w],
+                       s.joint_applied[w])
     for k in range(n):
         t0 = _now(buf)
         ncon = 0
@@ -117,36 +134,50 @@ def profiled_steps(m, s, con, pairs, n, o, t_stage, t_part, counts):
             for c in range(nprev):
                 prev.geom[c, 0], prev.geom[c, 1] = cw.geom[c, 0], cw.geom[c, 1]
                 prev.feature[c] = cw.feature[c]
-                for q in range(3):
+                for q in range(cw.impulse.shape[1]):
                     prev.impulse[c, q] = cw.impulse[c, q]
             code, ncon = collide_world(m, pos, quat, gpos, gquat, aabb_lo, aabb_hi, pairs,
-                                       cw, nprev, prev, o.contact_margin)
+                                       cw, nprev, prev, o.contact_margin, o.broadphase)
             if code != COLLIDE_OK:
                 return -1, k
             s.contact_count[w] = ncon
         t1 = _now(buf)
         t_stage[0] += t1 - t0
         accumulate_forces(m, s.applied_force[w], s.applied_torque[w], force, torque)
+        if has_drives:
+            actuator_forces(m, pos, quat, vel, angvel, drive, s.ctrl[w], o.pd_mode,
+                            force, torque)
+        if has_servo and o.pd_mode == PD_STABLE:
+            world_inverse_inertia(m, quat, inv_inertia)
+            stable_servo_forces(m, pos, quat, vel, angvel, drive, h, o.erp, o.cfm,
+                                o.gyroscopic, o.tolerance, rows, imp, vel_pred,
+                                angvel_pred, inv_inertia, force, torque)
         if o.contact == P.CONTACT_PENALTY and ncon > 0:
-            penalty_forces(pos, vel, angvel, cw, ncon, o.penalty_k, o.penalty_c, o.v_slip, h,
-                           force, torque)
+            penalty_forces(m, pos, quat, vel, angvel, cw, ncon, o.penalty_k, o.penalty_c,
+                           o.v_slip, h, nper == ROWS_SPIN, force, torque)
         t0 = _now(buf)
         t_stage[1] += t0 - t1
         integrate_velocities(m, quat, vel, angvel, force, torque, h, o.gyroscopic)
         t1 = _now(buf)
         t_stage[2] += t1 - t0
-        nrow = njrow + (3 * ncon if o.contact != P.CONTACT_PENALTY else 0)
+        nrow = nfix + (nper * ncon if o.contact != P.CONTACT_PENALTY else 0)
         counts[4] += ncon
         if nrow > 0:
             if njrow > 0:
-                build_joint_rows(m, pos, quat, vel, angvel, s.motor_target[w], h, o.erp,
-                                 o.cfm, rows)
+                build_joint_rows(m, pos, quat, vel, angvel, drive, h, o.erp, o.cfm, rows,
+                                 o.pd_mode == PD_IMPLICIT)
                 imp[:njrow] = s.row_impulse[w]
+            if nfix > njrow:
+                body_servo_rows(pos, quat, servoed, s.body_servo[w], s.body_target_pos[w],
+                                s.body_target_quat[w], s.body_target_vel[w],
+                                s.body_target_angvel[w], h, rows, njrow)
+                imp[njrow:nfix] = 0.0
             t0 = _now(buf)
             t_stage[3] += t0 - t1
-            if nrow > njrow:
-                build_contact_rows(pos, vel, angvel, cw, ncon, njrow, h, o.contact_erp,
-                                   o.contact_cfm, o.slop, o.bounce_threshold, rows, imp)
+            if nrow > nfix:
+                build_contact_rows(m, pos, vel, angvel, cw, ncon, nfix, nper, h,
+                                   o.contact_erp, o.contact_cfm, o.slop,
+                                   o.bounce_threshold, rows, imp)
             t1 = _now(buf)
             t_stage[4] += t1 - t0
             world_inverse_inertia(m, quat, inv_inertia)
@@ -163,7 +194,7 @@ def profiled_steps(m, s, con, pairs, n, o, t_stage, t_part, counts):
                 if row_active(rows, r):
                     counts[3] += 1
             t0 = _now(buf)
-            s.lcp_fallbacks[w] += P.solve_rows(m, rows, nrow, njrow, ncon, inv_inertia, vel,
+            s.lcp_fallbacks[w] += P.solve_rows(m, rows, nrow, nfix, ncon, inv_inertia, vel,
                                                angvel, imp, o)
             t1 = _now(buf)
             t_stage[6] += t1 - t0
@@ -171,8 +202,8 @@ def profiled_steps(m, s, con, pairs, n, o, t_stage, t_part, counts):
                 s.row_impulse[w] = imp[:njrow]
                 joint_reactions(m, pos, quat, rows, s.row_impulse[w], h, s.joint_force[w],
                                 s.joint_torque[w])
-            if nrow > njrow:
-                store_contact_impulses(cw, ncon, njrow, imp)
+            if nrow > nfix:
+                store_contact_impulses(cw, ncon, nfix, nper, imp)
             t0 = _now(buf)
             t_stage[7] += t0 - t1
         else:
@@ -181,7 +212,7 @@ def profiled_steps(m, s, con, pairs, n, o, t_stage, t_part, counts):
         t1 = _now(buf)
         t_stage[8] += t1 - t0
         if njrow > 0 and o.projection > 0:
-            project_joints(m, pos, quat, vel, angvel, s.motor_target[w], rows, inv_inertia,
+            project_joints(m, pos, quat, vel, angvel, drive, rows, inv_inertia,
                            o.projection, o.projection_tolerance)
         t0 = _now(buf)
         t_stage[9] += t0 - t1
@@ -217,11 +248,15 @@ def profile_world(world, steps, chunk=32):
     return t_stage, t_part, counts, done
 
 
-def reference_ms(model, variant, steps, chunk=32):
-    from bench.bench_tumble import VARIANTS
+def make_world(model, variant, scene):
+    from bench.bench_tumble import make_world as scene_world
+    return scene_world(model, variant, scene)
+
+
+def reference_ms(model, scene, variant, steps, chunk=32):
     """CPU ms per step of the normal ``world.step`` on the same scene (thread time, so a
     busy machine inflates it less than wall time)."""
-    world = tumble.World(model, **VARIANTS[variant])
+    world = make_world(model, variant, scene)
     done = 0
     t0 = time.thread_time()
     while done < steps:
@@ -261,17 +296,17 @@ def main():
     out = []
     for scene in args.scenes:
         model = T.build(scene)
-        warm = tumble.World(model, **VARIANTS[args.variant])
+        warm = make_world(model, args.variant, scene)
         profile_world(warm, 2)                      # compile outside the figures
         warm.step(2)
         steps = args.steps or T.steps(scene)
         best = None
         for _ in range(args.repeat):                # keep each stage's least time
-            world = tumble.World(model, **VARIANTS[args.variant])
+            world = make_world(model, args.variant, scene)
             res = profile_world(world, steps)
             best = res if best is None else (np.minimum(best[0], res[0]),
                                              np.minimum(best[1], res[1]), res[2], res[3])
-        ref = min(reference_ms(model, args.variant, steps) for _ in range(args.repeat))
+        ref = min(reference_ms(model, scene, args.variant, steps) for _ in range(args.repeat))
         out.append(report(scene, args.variant, *best, ref))
     if args.json:
         Path(args.json).write_text(json.dumps(out, indent=2))

@@ -35,8 +35,15 @@ VARIANTS = {"default": {}, "pgs": dict(solver="pgs", contact="pgs"),
 EXTRA_SCENES = ["ragdoll60pd", "ragdoll120pd"]
 
 
-def make_world(model, variant):
-    return tumble.World(model, dt=model.timestep, **VARIANTS[variant])
+def make_world(model, variant, scene=None):
+    """The world of a scene; for a PD ragdoll under an in-step variant (``*-pd``) its
+    joints get the scene's gains as servos toward the built pose."""
+    world = tumble.World(model, dt=model.timestep, **VARIANTS[variant])
+    pd = C.ragdoll_mode(scene)[1] if scene and scene.startswith("ragdoll") else None
+    if pd and variant.endswith("-pd"):
+        for name, (kp, kd) in S.ragdoll_pd_gains(S.ragdoll_parts(), pd).items():
+            world.set_pd_gains(name, kp, kd)
+    return world
 
 
 def warm_up(model, variant):
@@ -159,12 +166,9 @@ def run_spheres(args, model, warm):
 
 def run_ragdoll(args, model, warm):
     _, pd = C.ragdoll_mode(args.scene)
-    world = make_world(model, args.variant)
+    world = make_world(model, args.variant, args.scene)
     control = None
-    if pd and args.variant.endswith("-pd"):
-        for name, (kp, kd) in S.ragdoll_pd_gains(S.ragdoll_parts(), pd).items():
-            world.set_pd_gains(name, kp, kd)       # servo toward the built pose
-    elif pd:
+    if pd and not args.variant.endswith("-pd"):
         control = T.ExplicitPD(world, S.ragdoll_pd_gains(S.ragdoll_parts(), pd)).apply
         c0 = time.perf_counter()
         control()                     # warm the control path too (NumPy, first-call costs)

@@ -30,6 +30,8 @@ slides are folded into the joint's servo by the World instead so they run implic
 import numpy as np
 from numba import njit
 
+from .._jit import noalloc
+
 from ..math.quat import quat_conj, quat_log, quat_mul, quat_rotate
 from .integrate import integrate_velocities
 from .joints.common import INF, angular_row, clear_row, linear_row
@@ -49,7 +51,7 @@ def _cross(a, b):
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
-@njit(cache=True)
+@noalloc
 def _apply_dof(force, torque, pos, a, b, e, linear, anchor_a, anchor_b, amount):
     """``amount`` (N m or N) along world axis ``e``: + on the child, - on the parent."""
     for side in range(2):
@@ -69,7 +71,7 @@ def _apply_dof(force, torque, pos, a, b, e, linear, anchor_a, anchor_b, amount):
                 torque[body, k] += s * e[k]
 
 
-@njit(cache=True)
+@noalloc
 def actuator_forces(m, pos, quat, vel, angvel, drive, ctrl, mode, force, torque):
     """Add explicit actuator forces and torques (N, N m, world) to ``force``/``torque``.
 
@@ -180,7 +182,7 @@ def servoed_bodies(body_servo):
     return np.flatnonzero(on)
 
 
-@njit(cache=True)
+@noalloc
 def body_servo_rows(pos, quat, servoed, gains, target_pos, target_quat, target_vel,
                     target_angvel, h, rows, r0):
     """Six implicit PD rows per servoed body from row ``r0``: its COM toward ``target_pos``

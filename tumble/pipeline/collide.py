@@ -8,18 +8,22 @@ collision bits do not match (MuJoCo's contype/conaffinity rule) and excluded bod
 impulse of the contact with the same geoms and feature id in the previous step, so the
 solvers can warm start.
 """
+import numpy as np
 from numba import njit
+
+from .._jit import noalloc
 
 from ..math.quat import quat_mul, quat_rotate
 from ..model.model import DYNAMIC
 from .collision.broadphase import BROADPHASE_SAP, overlapping_pairs
-from .collision.dispatch import collide_geoms, geom_aabb_any
+from .collision.dispatch import collide_geoms, collide_pair, geom_aabb_any
+from .collision.shapes import CONVEX
 
 # What collide_world reports besides the contact count.
 COLLIDE_OK, COLLIDE_PAIRS_FULL, COLLIDE_CONTACTS_FULL = 0, 1, 2
 
 
-@njit(cache=True)
+@noalloc
 def geom_world_poses(m, pos, quat, gpos, gquat):
     """World position (ngeom, 3) and orientation (ngeom, 4) of every geom."""
     for g in range(m.geom_type.shape[0]):
@@ -38,7 +42,18 @@ def geom_world_poses(m, pos, quat, gpos, gquat):
             gquat[g, k] = q[k]
 
 
-@njit(cache=True)
+@noalloc
+def world_aabbs(m, gpos, gquat, world_margin, aabb_lo, aabb_hi):
+    """World AABB (ngeom, 3) lower and upper corners of every geom, grown by its margin or
+    ``world_margin``, whichever is larger."""
+    for g in range(m.geom_type.shape[0]):
+        lo, hi = geom_aabb_any(m, g, gpos[g], gquat[g], max(m.geom_margin[g], world_margin))
+        for k in range(3):
+            aabb_lo[g, k] = lo[k]
+            aabb_hi[g, k] = hi[k]
+
+
+@noalloc
 def _excluded(m, a, b, nbody):
     """Binary search of the body pair among the model's excluded pairs."""
     a = nbody if a < 0 else a
@@ -55,7 +70,7 @@ def _excluded(m, a, b, nbody):
     return lo < keys.shape[0] and keys[lo] == key
 
 
-@njit(cache=True)
+@noalloc
 def may_collide(m, ga, gb, nbody):
     """Whether geoms ``ga`` and ``gb`` are allowed to touch (before any geometry test)."""
     a, b = m.geom_body[ga], m.geom_body[gb]
@@ -84,17 +99,12 @@ def collide_world(m, pos, quat, gpos, gquat, aabb_lo, aabb_hi, pairs, con, prev_
     Returns (status, count): status COLLIDE_PAIRS_FULL or COLLIDE_CONTACTS_FULL asks the
     caller for larger buffers (``count`` is then the size needed).
     """
-    ng = m.geom_type.shape[0]
-    nbody = pos.shape[0]
     geom_world_poses(m, pos, quat, gpos, gquat)
-    for g in range(ng):
-        lo, hi = geom_aabb_any(m, g, gpos[g], gquat[g], max(m.geom_margin[g], world_margin))
-        for k in range(3):
-            aabb_lo[g, k] = lo[k]
-            aabb_hi[g, k] = hi[k]
+    world_aabbs(m, gpos, gquat, world_margin, aabb_lo, aabb_hi)
     npair = overlapping_pairs(broadphase, aabb_lo, aabb_hi, pairs, m.geom_body)
     if npair > pairs.shape[0]:
         return COLLIDE_PAIRS_FULL, npair
+    nbody = pos.shape[0]
     cap = con.depth.shape[0]
     # np.int64, not 0: a loop-carried literal would compile every pair routine twice
     count = np.int64(0)
@@ -106,8 +116,16 @@ def collide_world(m, pos, quat, gpos, gquat, aabb_lo, aabb_hi, pairs, con, prev_
         if count + 4 > cap:
             return COLLIDE_CONTACTS_FULL, 2 * cap + 64
         margin = max(m.geom_margin[ga], m.geom_margin[gb], world_margin)
-        n = collide_geoms(m, ga, gpos[ga], gquat[ga], gb, gpos[gb], gquat[gb], margin,
-                          con.point, con.normal, con.depth, con.feature, count)
+        ta, tb = np.int64(m.geom_type[ga]), np.int64(m.geom_type[gb])
+        if ta < CONVEX and tb < CONVEX:
+            # primitives straight to their pair routine: collide_geoms takes the whole model,
+            # whose reference counting would cost more than most pair tests
+            n = collide_pair(ta, gpos[ga], gquat[ga], m.geom_size[ga], tb, gpos[gb], gquat[gb],
+                             m.geom_size[gb], margin, con.point, con.normal, con.depth,
+                             con.feature, count)
+        else:
+            n = collide_geoms(m, ga, gpos[ga], gquat[ga], gb, gpos[gb], gquat[gb], margin,
+                              con.point, con.normal, con.depth, con.feature, count)
         # previous contacts are in the same (ga, gb) order: advance to this pair
         while p < prev_count and (prev.geom[p, 0] < ga or (prev.geom[p, 0] == ga and prev.geom[p, 1] < gb)):
             p += 1

@@ -56,12 +56,27 @@ def project_joints(m, pos, quat, vel, angvel, drive, rows, inv_inertia, iteratio
         return
     idx = np.empty(n, np.int64)
     _rigid_core_rows(m, rows, idx)
+    # the common case, a drift within tolerance, needs no plan, factor or work arrays
+    zero = np.zeros_like(vel)
+    if _largest_core_error(m, pos, quat, drive, rows, idx, n, zero) < tolerance:
+        return
     nb = pos.shape[0]
     tree, plan = tree_plan(rows, idx, n, m.body_inv_mass, nb)
     nd = 0 if tree else n
     _project(m, pos, quat, drive, rows, inv_inertia, iterations, tolerance, idx, n,
              tree, plan, np.zeros((n, 12)), np.zeros(n), np.zeros((nd, nd)), np.zeros((nd, nd)),
-             np.zeros(n), np.zeros(n), np.zeros((nb, 6)), np.zeros((nb, 6)), np.zeros_like(vel))
+             np.zeros(n), np.zeros(n), np.zeros((nb, 6)), np.zeros((nb, 6)), zero)
+
+
+@noalloc
+def _largest_core_error(m, pos, quat, drive, rows, idx, n, zero):
+    """Largest position error (m or rad) of the rows ``idx``: with h = 1, ERP = 1 and zero
+    velocities each core row's rhs is minus its error, as ``_project`` measures it."""
+    build_joint_rows(m, pos, quat, zero, zero, drive, 1.0, 1.0, 0.0, rows, False)
+    biggest = 0.0
+    for i in range(n):
+        biggest = max(biggest, abs(rows.rhs[idx[i]]))
+    return biggest
 
 
 @noalloc

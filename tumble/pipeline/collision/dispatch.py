@@ -32,7 +32,7 @@ from .raycast import raycast_geom
 from .shapes import BOX, CAPSULE, CONVEX, CYLINDER, HEIGHTFIELD, PLANE, SPHERE, geom_aabb, support
 
 
-@njit(cache=True)
+@noalloc
 def _collide_ordered(ta, pos_a, quat_a, size_a, tb, pos_b, quat_b, size_b, margin, out_point,
                      out_normal, out_depth, out_feature, start):
     if ta == PLANE:
@@ -89,7 +89,7 @@ def _collide_ordered(ta, pos_a, quat_a, size_a, tb, pos_b, quat_b, size_b, margi
     return 0
 
 
-@njit(cache=True)
+@noalloc
 def collide_pair(type_a, pos_a, quat_a, size_a, type_b, pos_b, quat_b, size_b, margin,
                  out_point, out_normal, out_depth, out_feature, start):
     """Contacts between geoms A and B of any types (see ``primitives`` for the output
@@ -211,7 +211,7 @@ def geom_hfield(m, g):
     return m.hfield_data[a:a + nr * nc], nr, nc
 
 
-@njit(cache=True)
+@noalloc
 def _flip_rows(out_normal, start, cnt):
     for i in range(start, start + cnt):
         out_normal[i, 0] = -out_normal[i, 0]

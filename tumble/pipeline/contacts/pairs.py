@@ -12,6 +12,8 @@ A pair where neither geom sets a stiffness (or damping) uses the world's: penalt
 """
 from numba import njit
 
+from ..._jit import noalloc
+
 # Contact rows per contact: normal, 2 friction; with spin friction also torsional, 2 rolling.
 ROWS_SLIDING, ROWS_SPIN = 3, 6
 
@@ -35,7 +37,7 @@ def pair_spin_friction(m, ga, gb):
             max(m.geom_rolling[ga], m.geom_rolling[gb]))
 
 
-@njit(cache=True)
+@noalloc
 def rows_per_contact(m):
     """ROWS_SPIN when any geom has torsional or rolling friction, else ROWS_SLIDING: a
     model without spin friction pays nothing for it."""

@@ -27,6 +27,8 @@ import math
 
 from numba import njit
 
+from ..._jit import noalloc
+
 from ...math.quat import quat_rotate_inv
 from .pairs import pair_softness, pair_spin_friction
 from .rows import lever, relative_velocity, tangents
@@ -51,7 +53,7 @@ def _inv_inertia_about(m, quat, b, e):
     return eb[0] * eb[0] * inv[0] + eb[1] * eb[1] * inv[1] + eb[2] * eb[2] * inv[2]
 
 
-@njit(cache=True)
+@noalloc
 def _spin_torque(m, quat, a, b, e, w, mu, fn, h):
     """Regularised spin-friction torque (N m, on b, along the unit direction ``e``) of a
     relative spin rate ``w`` (rad/s) about ``e``."""
@@ -60,7 +62,7 @@ def _spin_torque(m, quat, a, b, e, w, mu, fn, h):
     return -mu * fn * w / max(abs(w), w_reg)
 
 
-@njit(cache=True)
+@noalloc
 def penalty_forces(m, pos, quat, vel, angvel, con, count, k, c, v_slip, h, spin_model, force,
                    torque):
     """Add the contact forces (N) and their torques about each COM to ``force``/``torque``;

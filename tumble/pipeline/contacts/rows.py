@@ -21,6 +21,8 @@ import math
 
 from numba import njit
 
+from ..._jit import noalloc
+
 from ..joints.common import INF, angular_row, clear_row, linear_row
 from .pairs import ROWS_SPIN, pair_softness, pair_spin_friction
 
@@ -47,7 +49,7 @@ def lever(pos, b, p):
     return (p[0] - pos[b, 0], p[1] - pos[b, 1], p[2] - pos[b, 2])
 
 
-@njit(cache=True)
+@noalloc
 def relative_velocity(vel, angvel, a, b, r_a, r_b):
     """Velocity of B's material point minus A's at the contact, world frame."""
     x = y = z = 0.0
@@ -64,7 +66,7 @@ def relative_velocity(vel, angvel, a, b, r_a, r_b):
     return (x, y, z)
 
 
-@njit(cache=True)
+@noalloc
 def build_contact_rows(m, pos, vel, angvel, con, count, r0, nper, h, erp, cfm, slop,
                        bounce_threshold, rows, impulse):
     """Rows ``r0 + nper c ... r0 + nper c + nper - 1`` for contact c (``nper`` rows per
@@ -118,7 +120,7 @@ def build_contact_rows(m, pos, vel, angvel, con, count, r0, nper, h, erp, cfm, s
             impulse[r + q] = con.impulse[c, q]
 
 
-@njit(cache=True)
+@noalloc
 def store_contact_impulses(con, count, r0, nper, impulse):
     """Keep each contact's solved impulses (for reporting and the next warm start)."""
     for c in range(count):

@@ -31,17 +31,19 @@ import math
 
 from numba import njit
 
+from ..._jit import noalloc
+
 from ...math.quat import quat_conj, quat_log, quat_mul, quat_rotate
 from .common import point_rows
 
 
-@njit(cache=True)
+@noalloc
 def core_rows(m, rows, r, j, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm):
     point_rows(rows, r, m.joint_parent[j], m.joint_child[j], anchor_a, anchor_b, r_a, r_b,
                erp_h, cfm)
 
 
-@njit(cache=True)
+@noalloc
 def dofs(frame_a, frame_b, anchor_a, anchor_b):
     """Axes: the parent joint frame's x, y, z (world); coordinates: the rotation vector of
     the child joint frame relative to the parent's (rad), in the parent joint frame."""
@@ -51,7 +53,7 @@ def dofs(frame_a, frame_b, anchor_a, anchor_b):
             quat_rotate(frame_a, (0.0, 0.0, 1.0))), rv
 
 
-@njit(cache=True)
+@noalloc
 def twist_terms(frame_a, frame_b):
     """The twist of the child joint frame and the axis of its rate.
 
@@ -73,7 +75,7 @@ def twist_terms(frame_a, frame_b):
     return tau, ((xa[0] + xb[0]) / den, (xa[1] + xb[1]) / den, (xa[2] + xb[2]) / den), True
 
 
-@njit(cache=True)
+@noalloc
 def swing_terms(frame_a, frame_b, cone_y, cone_z):
     """The swing of the child's x axis against the cone (half-angles about y and z, rad).
 

@@ -13,6 +13,8 @@ the error at step h are reproduced by ``ERP = h k / (h k + c)``, ``CFM = 1 / (h 
 """
 from numba import njit
 
+from ..._jit import noalloc
+
 from ...math.quat import quat_conj, quat_mul
 from . import ball, fixed, hinge, slider, universal
 from .servo import pd_error, servo_active, servo_row_terms
@@ -20,13 +22,13 @@ from .common import INF, angular_row, clear_row, joint_frames, linear_row
 from .types import BALL, FIXED, HINGE, ROWS_PER_DOF, SLIDER, UNIVERSAL
 
 
-@njit(cache=True)
+@noalloc
 def soft_erp_cfm(k, c, h):
     """(ERP, CFM) of a spring ``k`` (N/m or N m/rad) and damper ``c`` at step ``h``."""
     return h * k / (h * k + c), 1.0 / (h * k + c)
 
 
-@njit(cache=True)
+@noalloc
 def joint_dofs(m, pos, quat, j):
     """(ndof, axes (3 world vectors), coordinates (3,), linear?, frames and anchors)."""
     anchor_a, anchor_b, r_a, r_b, frame_a, frame_b = joint_frames(m, pos, quat, j)
@@ -49,7 +51,7 @@ def joint_dofs(m, pos, quat, j):
     return n, axes, q, t == SLIDER, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b
 
 
-@njit(cache=True)
+@noalloc
 def core_rows(m, rows, r, j, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm):
     """Write joint j's core rows (those that hold it together) from row ``r`` on."""
     t = m.joint_type[j]
@@ -65,7 +67,7 @@ def core_rows(m, rows, r, j, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp
         slider.core_rows(m, rows, r, j, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm)
 
 
-@njit(cache=True)
+@noalloc
 def build_joint_rows(m, pos, quat, vel, angvel, drive, h, erp, cfm, rows, servo_rows):
     """Write every joint's rows for one world. ``erp`` and ``cfm`` are the world's defaults;
     a joint's own values (>= 0) or its spring-damper override them.
@@ -126,7 +128,7 @@ def build_joint_rows(m, pos, quat, vel, angvel, drive, h, erp, cfm, rows, servo_
             clear_row(rows, k, a, b)
 
 
-@njit(cache=True)
+@noalloc
 def _dof_velocity(e, linear, a, b, vel, angvel, r_a, r_b):
     """Rate of a joint coordinate along world axis ``e`` (rad/s or m/s)."""
     out = 0.0
@@ -160,7 +162,7 @@ def _dof_row(rows, r, a, b, e, linear, r_a, r_b, rhs, cfm, bound):
         angular_row(rows, r, a, b, e, rhs, cfm, -bound, bound)
 
 
-@njit(cache=True)
+@noalloc
 def _limit_row(m, rows, r, j, a, b, e, linear, q, qd, h, erp_h, cfm, r_a, r_b):
     """A one-sided row when the coordinate is past a limit or would cross it this step."""
     lo, hi = m.joint_limit[j, 0], m.joint_limit[j, 1]
@@ -170,7 +172,7 @@ def _limit_row(m, rows, r, j, a, b, e, linear, q, qd, h, erp_h, cfm, r_a, r_b):
     _bound_row(rows, r, a, b, e, linear, q - lo, hi - q, qd, h, erp_h, cfm, r_a, r_b)
 
 
-@njit(cache=True)
+@noalloc
 def _bound_row(rows, r, a, b, e, linear, c_lo, c_hi, qd, h, erp_h, cfm, r_a, r_b):
     """The one-sided row of a coordinate with margins ``c_lo`` above its lower bound and
     ``c_hi`` below its upper one, moving at ``qd = e . (relative velocity)``: written when
@@ -189,7 +191,7 @@ def _bound_row(rows, r, a, b, e, linear, c_lo, c_hi, qd, h, erp_h, cfm, r_a, r_b
         clear_row(rows, r, a, b)
 
 
-@njit(cache=True)
+@noalloc
 def _swing_twist_row(m, rows, r, j, d, a, b, frame_a, frame_b, vel, angvel, h, erp_h, cfm,
                      r_a, r_b):
     """Limit slot ``d`` of a ball joint with a cone or twist range: d = 0 the twist row,
@@ -210,7 +212,7 @@ def _swing_twist_row(m, rows, r, j, d, a, b, frame_a, frame_b, vel, angvel, h, e
     clear_row(rows, r, a, b)
 
 
-@njit(cache=True)
+@noalloc
 def joint_coordinates(m, pos, quat, vel, angvel, q_out, qd_out, qrel_out):
     """Coordinates (nj, 3), their rates (nj, 3) and relative rotations (nj, 4) of every joint.
 
@@ -233,7 +235,7 @@ def joint_coordinates(m, pos, quat, vel, angvel, q_out, qd_out, qrel_out):
                 qd_out[j, d] = 0.0
 
 
-@njit(cache=True)
+@noalloc
 def joint_reactions(m, pos, quat, rows, impulse, h, force_out, torque_out):
     """Force (N) and torque about the anchor (N m) each joint exerts on its child, world frame,
     averaged over the step: the impulses of all its rows divided by ``h``."""

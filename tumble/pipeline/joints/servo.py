@@ -8,6 +8,8 @@ from collections import namedtuple
 
 from numba import njit
 
+from ..._jit import noalloc
+
 from ...math.quat import quat_conj, quat_log, quat_mul
 from .types import BALL, HINGE, SLIDER, UNIVERSAL
 
@@ -30,7 +32,7 @@ def wrap_angle(x):
     return x - 2.0 * math.pi * math.floor((x + math.pi) / (2.0 * math.pi))
 
 
-@njit(cache=True)
+@noalloc
 def pd_error(t, q, frame_a, frame_b, target_quat, target_q):
     """Servo error (3,) along the joint's DoF axes: target minus current (rad or m)."""
     if t == BALL:
@@ -50,7 +52,7 @@ def servo_active(drive, j):
     return drive.kp[j] > 0.0 or drive.kd[j] > 0.0
 
 
-@njit(cache=True)
+@noalloc
 def servo_row_terms(kp, kd, h, err, target_qd):
     """(rhs, cfm) of the implicit servo row: the implicit-Euler spring-damper.
 
