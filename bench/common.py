@@ -1,7 +1,7 @@
 """What every engine runner shares: command line, timed stepping loop, quality figures, output.
 
 Each runner (``bench/bench_tumble.py``, ``bench/peers/bench_mujoco.py``,
-``bench/peers/bench_pybullet.py``) is run as
+``bench/peers/bench_pybullet.py``, ``bench/peers/bench_ode.py``) is run as
 
     python RUNNER SCENE [--variant V] [--budget SECONDS]
 

@@ -49,6 +49,8 @@ ENGINES = {
     "tumble": Engine("bench.bench_tumble", "tumble"),
     "mujoco": Engine("bench.peers.bench_mujoco", "mujoco"),
     "pybullet": Engine("bench.peers.bench_pybullet", "pybullet"),
+    # ODE, the engine the GAMES-105 course uses, through panda3d.ode (pip install panda3d)
+    "ode": Engine("bench.peers.bench_ode", "panda3d"),
     # MuJoCo's own stable PD (position actuators, implicit damping): the figure to beat
     "mujoco_native_pd": Engine("bench.peers.mujoco_native_pd", "mujoco",
                                scenes=[s for s in C.SCENES if s.startswith("ragdoll")
