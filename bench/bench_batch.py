@@ -1,6 +1,6 @@
 """Throughput of batched worlds: N copies of a scene stepped together, steps per second.
 
-    python bench/bench_batch.py                              # ragdoll600 and chain, N = 64, 256
+    python bench/bench_batch.py                              # ragdoll600 and chain, N = 1, 64, 1024
     python bench/bench_batch.py ragdoll600 --nworld 16 64 --steps 300 --json batch.json
 
 Each world starts from the scene's initial pose with its own random velocity (the ragdoll
@@ -134,7 +134,7 @@ def time_mujoco_loop(scene, nworld, steps, repeat):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("scenes", nargs="*", default=["ragdoll600", "chain"])
-    ap.add_argument("--nworld", type=int, nargs="+", default=[64, 256])
+    ap.add_argument("--nworld", type=int, nargs="+", default=[1, 64, 1024])
     ap.add_argument("--steps", type=int, default=0, help="steps per world (default per scene)")
     ap.add_argument("--repeat", type=int, default=2)
     ap.add_argument("--json", default=None)
@@ -143,9 +143,11 @@ def main():
     have_mujoco = importlib.util.find_spec("mujoco") is not None
     rows = []
     print(f"threads: {nthread} (Numba and MuJoCo rollout)")
-    print(f"{'scene':11s} {'N':>4s} {'engine':22s} {'us/world-step':>14s} {'world-steps/s':>14s}")
+    print(f"{'scene':11s} {'N':>4s} {'engine':22s} {'us/world-step':>14s} {'world-steps/s':>14s}"
+          f" {'body-steps/s':>14s}")
     for scene in args.scenes:
         steps = args.steps or STEPS[scene]
+        nbody = T.build(scene).nbody
         for nw in args.nworld:
             res = {}
             res["tumble serial"] = time_tumble(scene, nw, steps, False, args.repeat)
@@ -157,10 +159,11 @@ def main():
             for engine, (sec, finite) in res.items():
                 us = 1e6 * sec / (nw * steps)
                 print(f"{scene:11s} {nw:4d} {engine:22s} {us:14.2f} {nw * steps / sec:14.0f}"
+                      f" {nbody * nw * steps / sec:14.0f}"
                       + ("" if finite else "  (non-finite state)"))
                 rows.append(dict(scene=scene, nworld=nw, steps=steps, engine=engine,
                                  seconds=sec, us_per_world_step=us, finite=finite,
-                                 threads=nthread))
+                                 body_steps_per_s=nbody * nw * steps / sec, threads=nthread))
             if have_mujoco:
                 for t in ("tumble serial", "tumble threads"):
                     ratios = ", ".join(f"/ {p}: {res[t][0] / res[p][0]:.2f}"

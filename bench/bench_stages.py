@@ -49,7 +49,7 @@ from tumble.pipeline.joints.servo import JointDrive  # noqa: E402
 from tumble.pipeline.solvers.common import (make_rows_nb, row_active,  # noqa: E402
                                             world_inverse_inertia)
 from tumble.pipeline.solvers.direct import assemble  # noqa: E402
-from tumble.pipeline.stabilize import project_joints  # noqa: E402
+from tumble.pipeline.stabilize import project_joints, projection_setup  # noqa: E402
 
 _libc = ctypes.CDLL(ctypes.util.find_library("c"))
 _clock_gettime = _libc.clock_gettime
@@ -115,6 +115,7 @@ def profiled_steps(m, s, con, pairs, n, o, t_stage, t_part, counts):
     prev = make_contacts_nb(cap)
     vel_pred = np.empty((nb, 3))
     angvel_pred = np.empty((nb, 3))
+    projection = projection_setup(m, rows, nb)
     has_servo = np.any(s.pd_kp > 0.0) or np.any(s.pd_kd > 0.0)
     has_drives = m.act_joint.shape[0] > 0 or np.any(s.joint_applied != 0.0) or (
         o.pd_mode == PD_EXPLICIT and has_servo)
@@ -212,8 +213,8 @@ def profiled_steps(m, s, con, pairs, n, o, t_stage, t_part, counts):
         t1 = _now(buf)
         t_stage[8] += t1 - t0
         if njrow > 0 and o.projection > 0:
-            project_joints(m, pos, quat, vel, angvel, drive, rows, inv_inertia,
-                           o.projection, o.projection_tolerance)
+            project_joints(m, pos, quat, drive, rows, inv_inertia, o.projection,
+                           o.projection_tolerance, projection)
         t0 = _now(buf)
         t_stage[9] += t0 - t1
         bad = first_bad_body(pos, quat, vel, angvel, o.divergence_limit)

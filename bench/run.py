@@ -21,6 +21,7 @@ import os
 import platform
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -60,7 +61,10 @@ ENGINES = {
 # solver takes ~25x longer than CG on the 1000 spheres; tumble's default direct solver is
 # dense, seconds a step with a thousand contacts, where PGS takes tens of milliseconds.
 BEST_VARIANT = {("mujoco", "spheres"): "cg", ("tumble", "pyramid"): "pgs",
-                ("tumble", "spheres"): "pgs"}
+                ("tumble", "spheres"): "pgs", ("tumble", "ragdoll600pd"): "implicit-pd",
+                ("tumble", "ragdoll1920pd"): "implicit-pd"}
+# Steps of each scene the stage profile runs (the whole scene for the cheap ones).
+PROFILE_STEPS = {"pyramid": 120, "spheres": 120}
 # Time a run may take beyond its stepping budget (model building, compilation) before it is killed.
 OVERHEAD_S = 900.0
 
@@ -89,6 +93,50 @@ def run_one(engine, scene, variant, budget):
 
 
 # --------------------------------------------------------------------- the table ---
+
+def profile_one(scene, variant):
+    """Per-stage times of tumble's step on ``scene`` (bench/bench_stages.py, in a fresh
+    interpreter); its JSON record, or a dict with 'error'."""
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "stages.json"
+        cmd = [sys.executable, "-m", "bench.bench_stages", scene, "--repeat", "1",
+               "--json", str(out)]
+        if variant:
+            cmd += ["--variant", variant]
+        if scene in PROFILE_STEPS:
+            cmd += ["--steps", str(PROFILE_STEPS[scene])]
+        env = dict(os.environ, PYTHONPATH=str(ROOT))
+        try:
+            run = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True,
+                                 timeout=OVERHEAD_S)
+        except subprocess.TimeoutExpired:
+            return dict(scene=scene, error="timed out")
+        if run.returncode != 0 or not out.exists():
+            return dict(scene=scene, error=(run.stderr or run.stdout).strip().splitlines()[-1:])
+        return json.loads(out.read_text())[0]
+
+
+def profile_table(profiles):
+    """One line per scene: microseconds per step of each stage that takes 2 % or more."""
+    lines = ["tumble, where a step's time goes (us/step per stage; stages under 2 % left out):"]
+    for p in profiles:
+        if "error" in p:
+            lines.append("  %-13s profile failed: %s" % (p["scene"], p["error"]))
+            continue
+        total = p["us_per_step"]
+        parts = ", ".join("%s %.1f" % (k, v) for k, v in sorted(
+            p["stages_us"].items(), key=lambda kv: -kv[1]) if v >= 0.02 * total)
+        lines.append("  %-13s %8.1f us: %s" % (p["scene"], total, parts))
+    return "\n".join(lines)
+
+
+def startup():
+    """Seconds to import tumble, build a model and take the first step in a fresh
+    interpreter: with an empty Numba cache (everything compiles), then with it warm."""
+    from bench.bench_core import first_call
+    with tempfile.TemporaryDirectory() as cache:
+        return dict(cold_s=first_call(cache), warm_s=first_call(cache))
+
 
 def _mm(x):
     return "%.3g mm" % (1000.0 * float(x))
@@ -181,6 +229,11 @@ def main():
                          "and tumble with PGS on the pyramid and the spheres")
     ap.add_argument("--budget", type=float, default=300.0,
                     help="seconds of stepping per run before it is cut short (marked partial)")
+    ap.add_argument("--no-profile", dest="profile", action="store_false",
+                    help="skip tumble's per-stage profile of each scene")
+    ap.add_argument("--no-startup", dest="startup", action="store_false",
+                    help="skip timing tumble's start-up (import and first step, Numba "
+                         "cache cold and warm: about two minutes)")
     ap.add_argument("--json", default=str(ROOT / "bench" / "results" / "run.json"),
                     help="where to write all results (default: bench/results/run.json)")
     args = ap.parse_args()
@@ -213,10 +266,24 @@ def main():
             results.append(run_one(engine, scene, variant, args.budget))
 
     print(table(results))
+    profiles, start = [], None
+    if "tumble" in engines and args.profile:
+        for scene in args.scenes:
+            print("profiling %s in tumble ..." % scene, file=sys.stderr, flush=True)
+            profiles.append(profile_one(scene, variants.get(
+                "tumble", BEST_VARIANT.get(("tumble", scene)))))
+        print()
+        print(profile_table(profiles))
+    if "tumble" in engines and args.startup:
+        print("timing tumble's start-up ...", file=sys.stderr, flush=True)
+        start = startup()
+        print("\ntumble start-up (import, build, first step): %.1f s with Numba's cache cold, "
+              "%.2f s warm" % (start["cold_s"], start["warm_s"]))
     out = Path(args.json)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(dict(machine=machine(), budget_s=args.budget, skipped=missing,
-                                   results=results), indent=1))
+                                   results=results, profiles=profiles, startup=start),
+                              indent=1))
     print("\nwritten: %s" % out)
 
 

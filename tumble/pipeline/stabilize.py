@@ -43,29 +43,35 @@ def _rigid_core_rows(m, rows, idx):
 
 
 @njit(cache=True)
-def project_joints(m, pos, quat, vel, angvel, drive, rows, inv_inertia, iterations,
-                   tolerance):
+def projection_setup(m, rows, nbody):
+    """What ``project_joints`` needs for model ``m``, made once per ``step`` call: the rigid
+    joints' core rows, whether they form a tree and its plan (``solvers/tree.py``), and
+    the work arrays. Writes the rows' bodies into ``rows``."""
+    n = _rigid_core_rows(m, rows, np.empty(0, np.int64))
+    idx = np.empty(n, np.int64)
+    _rigid_core_rows(m, rows, idx)
+    tree, plan = tree_plan(rows, idx, n, m.body_inv_mass, nbody)
+    nd = 0 if tree else n
+    return (idx, tree, plan, np.zeros((n, 12)), np.zeros(n), np.zeros((nd, nd)),
+            np.zeros((nd, nd)), np.zeros(n), np.zeros(n), np.zeros((nbody, 6)),
+            np.zeros((nbody, 6)), np.zeros((nbody, 3)))
+
+
+@noalloc
+def project_joints(m, pos, quat, drive, rows, inv_inertia, iterations, tolerance, setup):
     """Move bodies so every rigid joint's core rows hold at the position level, once some
     row's error exceeds ``tolerance`` (m or rad); below it ERP alone corrects the drift.
+    ``setup`` comes from ``projection_setup``.
 
     Each Gauss-Newton step solves ``(J M^-1 J^T + R) y = -C`` (R: the relative
     regularisation) in linear time over the joints' tree (``solvers/tree.py``), or densely
     when the joints form loops."""
-    n = _rigid_core_rows(m, rows, np.empty(0, np.int64))
-    if n == 0:
+    idx, tree, plan, dv, b, A, work, reg, y, u, fzero, zero = setup
+    n = idx.shape[0]
+    if n == 0 or _largest_core_error(m, pos, quat, drive, rows, idx, n, zero) < tolerance:
         return
-    idx = np.empty(n, np.int64)
-    _rigid_core_rows(m, rows, idx)
-    # the common case, a drift within tolerance, needs no plan, factor or work arrays
-    zero = np.zeros_like(vel)
-    if _largest_core_error(m, pos, quat, drive, rows, idx, n, zero) < tolerance:
-        return
-    nb = pos.shape[0]
-    tree, plan = tree_plan(rows, idx, n, m.body_inv_mass, nb)
-    nd = 0 if tree else n
     _project(m, pos, quat, drive, rows, inv_inertia, iterations, tolerance, idx, n,
-             tree, plan, np.zeros((n, 12)), np.zeros(n), np.zeros((nd, nd)), np.zeros((nd, nd)),
-             np.zeros(n), np.zeros(n), np.zeros((nb, 6)), np.zeros((nb, 6)), zero)
+             tree, plan, dv, b, A, work, reg, y, u, fzero, zero)
 
 
 @noalloc

@@ -40,7 +40,7 @@ from .solvers.common import make_rows_nb, world_inverse_inertia
 from .solvers.direct import solve_direct
 from .solvers.mlcp import solve_mlcp
 from .solvers.pgs import solve_pgs
-from .stabilize import project_joints
+from .stabilize import project_joints, projection_setup
 
 SOLVER_DIRECT, SOLVER_PGS = 0, 1
 CONTACT_LCP, CONTACT_PGS, CONTACT_PENALTY = 0, 1, 2
@@ -188,6 +188,7 @@ def step_worlds(m, s, con, pairs, n, o):
     prev = make_contacts_nb(cap)
     vel_pred = np.empty((nb, 3))
     angvel_pred = np.empty((nb, 3))
+    projection = projection_setup(m, rows, nb)
     status, fail_w, fail_k, fail_b, needed = STEP_OK, -1, -1, -1, 0
     # explicit actuator work only when something could push: a servo off the implicit
     # path, an applied joint torque or an MJCF actuator
@@ -257,8 +258,8 @@ def step_worlds(m, s, con, pairs, n, o):
                     store_contact_impulses(cw, ncon, nfix, nper, imp)
             integrate_positions(m, pos, quat, vel, angvel, h, o.quat_integration)
             if njrow > 0 and o.projection > 0:
-                project_joints(m, pos, quat, vel, angvel, drive, rows, inv_inertia,
-                               o.projection, o.projection_tolerance)
+                project_joints(m, pos, quat, drive, rows, inv_inertia, o.projection,
+                               o.projection_tolerance, projection)
             bad = first_bad_body(pos, quat, vel, angvel, o.divergence_limit)
             if bad >= 0:
                 status, fail_w, fail_k, fail_b = STEP_DIVERGED, w, k, bad
