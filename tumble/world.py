@@ -170,7 +170,8 @@ class World:
         pairs; a geom stiffness too stiff for its body at this dt is warned about.
     slip_velocity : penalty friction's regularisation speed (m/s); default ``|g| dt``.
     projection_tolerance : largest row error (m, rad) past which projection runs; below it ERP
-        alone pulls joints together, which dissipates less.
+        alone pulls joints together, which dissipates less. Once running, projection stops
+        when the error is below a thousandth of this (or after ``projection`` iterations).
     pd : how joint PD servos act: 'implicit' (default; a soft constraint row solved with
         the joints and contacts, stable for any gains and step), 'explicit' (the lecture's
         torques from the state at the start of the step) or 'stable' (stable PD, Tan et al.

@@ -1,4 +1,4 @@
-"""The stage profiler (bench/bench_stages.py) steps exactly as World.step does.
+"""The stage profiler (bench/bench_stages.py) steps as World.step does.
 
 Its loop mirrors ``step.step_worlds`` with clock reads between the stages; if a stage is
 added to or changed in the step, this test fails until the profiler follows."""
@@ -32,6 +32,9 @@ def test_profiled_steps_match_world_step(contact):
     b.step(26)
     assert done == 90
     for field in ("body_pos", "body_quat", "body_vel", "body_angvel", "joint_q"):
-        np.testing.assert_array_equal(getattr(a, field), getattr(b, field), err_msg=field)
+        # the profiler is a separate compilation of the same kernels, which LLVM may
+        # contract into fused multiply-adds differently: equal to round-off, not bits
+        np.testing.assert_allclose(getattr(a, field), getattr(b, field), rtol=1e-9,
+                                   atol=1e-12, err_msg=field)
     assert np.all(t_stage >= 0) and t_stage.sum() > 0
     assert counts[4] > 0                                  # contacts were met

@@ -90,9 +90,14 @@ def _project(m, pos, quat, drive, rows, inv_inertia, iterations, tolerance, idx,
              plan, dv, b, A, work, reg, y, u, fzero, zero):
     """The Gauss-Newton iterations of ``project_joints`` on its work arrays."""
     nb = pos.shape[0]
+    # Gauss-Newton converges quadratically: once the error is a thousandth of the
+    # tolerance, a further iteration would cost a factorisation for nothing visible
+    done = max(1e-3 * tolerance, 1e-12)
     for it in range(iterations):
-        # with h = 1 and ERP = 1 each core row's rhs is minus its position error
-        build_joint_rows(m, pos, quat, zero, zero, drive, 1.0, 1.0, 0.0, rows, False)
+        # with h = 1 and ERP = 1 each core row's rhs is minus its position error (the first
+        # iteration's rows are those _largest_core_error has just built)
+        if it > 0:
+            build_joint_rows(m, pos, quat, zero, zero, drive, 1.0, 1.0, 0.0, rows, False)
         world_inverse_inertia(m, quat, inv_inertia)
         for i in range(n):
             rows.cfm[idx[i]] = 0.0
@@ -110,7 +115,7 @@ def _project(m, pos, quat, drive, rows, inv_inertia, iterations, tolerance, idx,
         biggest = 0.0
         for i in range(n):
             biggest = max(biggest, abs(b[i]))
-        if biggest < (tolerance if it == 0 else 1e-12):
+        if biggest < (tolerance if it == 0 else done):
             return
         if tree:
             # K [u; -y] = [0; b]: u = M^-1 J^T y, each body's displacement and rotation
