@@ -10,6 +10,7 @@ The public API (see the README and DESIGN notes):
     load_character_model  ragdolls from skeletons (tumble.character)
     set_pose, get_pose, joint_targets, Pose   motion frames <-> world poses
     PDController, HandOfGod, StaticBalance, MotionTracker   character control
+    SimbiconController, load_gait, run_walk   SIMBICON walking (tumble.character.simbicon)
     ModelError, StateError, SimulationError, TumbleError
 """
 from ._cache import invalidate_stale_kernels
@@ -20,9 +21,10 @@ from .errors import ModelError, SimulationError, StateError, TumbleError
 from .io import Motion, load_bvh, load_bvh_string, load_mjcf, load_urdf, save_bvh
 from .model import Model, ModelBuilder
 from .world import State, World
-from .character import (HandOfGod, MotionTracker, PDController, Pose, Ragdoll, Skeleton,
-                        StaticBalance, build_ragdoll, games105_ragdoll, get_pose,
-                        joint_targets, load_character_model, ragdoll_from_motion, set_pose)
+from .character import (HandOfGod, MotionTracker, PDController, Pose, Ragdoll,
+                        SimbiconController, Skeleton, StaticBalance, build_ragdoll,
+                        games105_ragdoll, get_pose, joint_targets, load_character_model,
+                        load_gait, ragdoll_from_motion, run_walk, set_pose)
 
 __version__ = "0.1.0"
 
@@ -33,4 +35,5 @@ __all__ = ["ModelBuilder", "Model", "World", "State", "Motion", "load_bvh", "loa
            "Skeleton", "Ragdoll", "build_ragdoll", "ragdoll_from_motion", "games105_ragdoll",
            "load_character_model", "Pose", "set_pose", "get_pose", "joint_targets",
            "PDController", "HandOfGod", "StaticBalance", "MotionTracker",
+           "SimbiconController", "load_gait", "run_walk",
            "TumbleError", "ModelError", "StateError", "SimulationError", "__version__"]
