@@ -67,6 +67,7 @@ __all__ = ["GaitState", "Gait", "load_gait", "gait_names", "BipedMap", "Simbicon
            "WalkResult", "run_walk", "Push"]
 
 LEFT, RIGHT = 0, 1
+_REGULATOR_START = 4        # steps walked before the speed regulator acts
 _GROUPS = ("hip", "torso", "knee", "ankle", "toe", "spine", "neck", "arm")
 
 
@@ -112,8 +113,9 @@ class Gait:
     max_torque : {group: N m} bound on each servo's torque per degree of freedom.
     speed : target forward speed (m/s; < 0 walks backwards) for the speed regulator, or
         None to walk at the gait's own speed.
-    speed_gain : rad of swing-hip flexion per (m/s) of speed error, added after each step
-        by the regulator (an integral over steps); speed_limit : bound on that offset, rad.
+    speed_gain, speed_p : the regulator's integral gain (rad of swing-hip flexion added
+        after each step per m/s of error of the step's mean speed) and proportional gain
+        (rad per m/s); speed_limit : bound on the offset, rad.
     turn_rate : rad/s of heading change (> 0 turns left).
     arms : (down, elbow): shoulders lowered from the T-pose by ``down``, elbows bent by
         ``elbow`` (forearm forward).
@@ -134,7 +136,8 @@ class Gait:
     gains: dict
     max_torque: dict
     speed: float = None
-    speed_gain: float = 0.0
+    speed_gain: float = 0.05
+    speed_p: float = 0.0
     speed_limit: float = 0.3
     turn_rate: float = 0.0
     arms: tuple = (1.3, 0.2)
@@ -223,8 +226,8 @@ def _parse_gait(data, source, text):
     if not isinstance(data, dict):
         raise ModelError(f"gait {source}: the file must hold a JSON object")
     known = {"name", "description", "states", "gains", "max_torque", "speed", "speed_gain",
-             "speed_limit", "turn_rate", "arms", "swing_foot_world", "stance_ankle_world",
-             "flexion_range", "abduction_range", "slope_lean",
+             "speed_p", "speed_limit", "turn_rate", "arms", "swing_foot_world",
+             "stance_ankle_world", "flexion_range", "abduction_range", "slope_lean",
              "slope_hip", "slope_ankle", "min_step_width"}
     for k in data:
         if k not in known:
@@ -280,7 +283,8 @@ def _parse_gait(data, source, text):
     return Gait(name=name, description=str(data.get("description", "")),
                 states=tuple(parsed), gains=gains, max_torque=limits,
                 speed=r.number(data, "speed", "", required=False, lo=-3.0, hi=3.0),
-                speed_gain=r.number(data, "speed_gain", "", default=0.0, lo=0.0),
+                speed_gain=r.number(data, "speed_gain", "", default=0.05, lo=0.0),
+                speed_p=r.number(data, "speed_p", "", default=0.0, lo=0.0),
                 speed_limit=r.number(data, "speed_limit", "", default=0.3, lo=0.0),
                 turn_rate=r.number(data, "turn_rate", "", default=0.0, lo=-3.0, hi=3.0),
                 arms=r.pair(data, "arms", "", default=(1.3, 0.2)),
@@ -559,6 +563,7 @@ class SimbiconController:
         self.time = 0.0
         self.heading = self._pelvis_yaw()
         self.speed_offset = 0.0
+        self.speed_integral = 0.0
         self.strikes = []
         self.fallen = False
         self.fall_reason = ""
@@ -570,6 +575,7 @@ class SimbiconController:
         self._apply_gains()
 
     _SNAP_FIELDS = ("state", "stance", "phase_time", "time", "heading", "speed_offset",
+                    "speed_integral",
                     "fallen", "fall_reason", "_step_start")
 
     def snapshot(self):
@@ -759,11 +765,16 @@ class SimbiconController:
         dt = self.time - t0
         if dt > 0:
             v = float((c - c0) @ fwd) / dt
-            if self.gait.speed is not None and self.gait.speed_gain > 0:
-                # too slow: place the foot less far ahead (and the reverse)
-                lim = self.gait.speed_limit
-                self.speed_offset = float(np.clip(
-                    self.speed_offset + self.gait.speed_gain * (self.gait.speed - v), -lim, lim))
+            g = self.gait
+            if g.speed is not None and len(self.strikes) > _REGULATOR_START:
+                # too slow: place the foot less far ahead (and the reverse); PI over steps,
+                # from the fifth step on (the first ones start from standing)
+                err = g.speed - v
+                lim = g.speed_limit
+                self.speed_integral = float(np.clip(self.speed_integral + g.speed_gain * err,
+                                                    -lim, lim))
+                self.speed_offset = float(np.clip(self.speed_integral + g.speed_p * err,
+                                                  -lim, lim))
         self._step_start = (self.time, c)
         self._apply_gains()
 
@@ -854,10 +865,17 @@ class SimbiconController:
             h = self.control_dt
             kp_t, kd_t = self._gains("torso")
             kp_h, kd_h = self._gains("hip")
-            I_up = self._composite_inertia(self._upper_bodies, None)
-            I_leg = self._composite_inertia(self._leg_bodies[swing], self._anchor(hw))
+            # Each torque acts between two bodies: its stable PD sees their reduced inertia
+            # (I_a^-1 + I_b^-1)^-1. The pelvis's and the thigh's own inertias, not those of
+            # everything attached to them: within a step the soft servos of the spine and
+            # knees let them turn nearly alone, and a larger guess diverges.
+            I_pelvis = self._composite_inertia([self.pelvis], None)
+            I_st = self._composite_inertia(self._leg_bodies[stance], self._anchor(hs))
+            I_sw = self._composite_inertia([th_sw], self._anchor(hw))
+            I_torso = _reduced(I_pelvis, I_st)
+            I_leg = _reduced(I_sw, I_pelvis)
             tau_torso = _stable_pd(R_pd, R_p, w.body_angvel[self.pelvis], w_yaw, kp_t, kd_t, h,
-                                   I_up, g.max_torque["torso"])
+                                   I_torso, g.max_torque["torso"])
             tau_swing = _stable_pd(R_thd, self._seg_rot(th_sw), w.body_angvel[th_sw], w_yaw,
                                    kp_h, kd_h, h, I_leg, g.max_torque["hip"])
             tau_stance = -tau_torso - tau_swing
@@ -883,6 +901,11 @@ class SimbiconController:
         self._contacts = self.world.contacts
         self._update_fsm()
         self._check_fall()
+
+
+def _reduced(Ia, Ib):
+    """Reduced inertia (Ia^-1 + Ib^-1)^-1 (3, 3) of two bodies a torque acts between."""
+    return np.linalg.inv(np.linalg.inv(Ia) + np.linalg.inv(Ib))
 
 
 def _stable_pd(R_d, R, w, w_d, kp, kd, h, inertia, limit):
