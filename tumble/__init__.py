@@ -11,6 +11,7 @@ The public API (see the README and DESIGN notes):
     set_pose, get_pose, joint_targets, Pose   motion frames <-> world poses
     PDController, HandOfGod, StaticBalance, MotionTracker   character control
     SimbiconController, load_gait, run_walk   SIMBICON walking (tumble.character.simbicon)
+    Recorder, Recording   record a run, save/load it (.npz); tumble.viewer views and exports
     ModelError, StateError, SimulationError, TumbleError
 """
 from ._cache import invalidate_stale_kernels
@@ -25,6 +26,7 @@ from .character import (HandOfGod, MotionTracker, PDController, Pose, Ragdoll,
                         SimbiconController, Skeleton, StaticBalance, build_ragdoll,
                         games105_ragdoll, get_pose, joint_targets, load_character_model,
                         load_gait, ragdoll_from_motion, run_walk, set_pose)
+from .viewer.recorder import Recorder, Recording
 
 __version__ = "0.1.0"
 
@@ -34,6 +36,6 @@ __all__ = ["ModelBuilder", "Model", "World", "State", "Motion", "load_bvh", "loa
            "save_bvh", "load_mjcf", "load_urdf",
            "Skeleton", "Ragdoll", "build_ragdoll", "ragdoll_from_motion", "games105_ragdoll",
            "load_character_model", "Pose", "set_pose", "get_pose", "joint_targets",
-           "PDController", "HandOfGod", "StaticBalance", "MotionTracker",
-           "SimbiconController", "load_gait", "run_walk",
+           "PDController", "HandOfGod", "StaticBalance", "MotionTracker", "Recorder",
+           "Recording", "SimbiconController", "load_gait", "run_walk",
            "TumbleError", "ModelError", "StateError", "SimulationError", "__version__"]

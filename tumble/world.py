@@ -1,19 +1,22 @@
 """World: the state of one model (or a batch of copies) and the calls that step and query it."""
 import os
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from .errors import ModelError, SimulationError, StateError
+from .errors import ModelError, SimulationError, StateError, TumbleWarning
 from .math.quat import quat_rotate, quat_rotate_inv
 from .model.model import DYNAMIC, KINEMATIC, STATIC, Model
 from .model.validate import positive
 from .pipeline import step as pipeline_step
 from .pipeline.contacts.arrays import ContactArrays, make_contacts
 from .pipeline.contacts.penalty import default_penalty
+from .pipeline.parallel import step_worlds_parallel
 from .pipeline.queries import distance_between, raycast_scene
 from .pipeline.actuators import PD_MODES
+from .pipeline.collision.broadphase import BROADPHASES
 from .pipeline.integrate import GYRO_EXPLICIT, GYRO_IMPLICIT, GYRO_NONE, QUAT_EXP, QUAT_LINEAR
 
 GYROSCOPIC = {"implicit": GYRO_IMPLICIT, "explicit": GYRO_EXPLICIT, "none": GYRO_NONE}
@@ -43,6 +46,7 @@ class Contacts:
     depth: np.ndarray
     force: np.ndarray
     normal_force: np.ndarray
+    torque: np.ndarray
 
     def __len__(self):
         return len(self.depth)
@@ -87,7 +91,9 @@ class State:
     arrays, n = the largest count) of the last step, whose impulses warm start the next;
     the joint servos and actuators: pd_kp, pd_kd, pd_max (nworld, njoint), pd_target_quat
     (nworld, njoint, 4), pd_target_q, pd_target_qd, joint_applied (nworld, njoint, 3), ctrl
-    (nworld, nactuator) (left as the world has them when None).
+    (nworld, nactuator); the body servos: body_servo (nworld, nbody, 4), body_target_pos,
+    body_target_vel, body_target_angvel (nworld, nbody, 3), body_target_quat (nworld, nbody,
+    4) (all left as the world has them when None).
     """
     time: float
     body_pos: np.ndarray
@@ -108,6 +114,11 @@ class State:
     pd_target_qd: np.ndarray = None
     joint_applied: np.ndarray = None
     ctrl: np.ndarray = None
+    body_servo: np.ndarray = None
+    body_target_pos: np.ndarray = None
+    body_target_quat: np.ndarray = None
+    body_target_vel: np.ndarray = None
+    body_target_angvel: np.ndarray = None
     contact_count: np.ndarray = None
     contacts: ContactArrays = None
 
@@ -115,10 +126,12 @@ class State:
 # Fields of State past the body state, each a copy of the StateArrays field of that name.
 _EXTRA_STATE = ("row_impulse", "motor_target", "applied_force", "applied_torque",
                 "joint_force", "joint_torque", "pd_kp", "pd_kd", "pd_max", "pd_target_quat",
-                "pd_target_q", "pd_target_qd", "joint_applied", "ctrl")
+                "pd_target_q", "pd_target_qd", "joint_applied", "ctrl", "body_servo",
+                "body_target_pos", "body_target_quat", "body_target_vel", "body_target_angvel")
 # Actuator fields: left as they are when a State does not carry them.
 _DRIVE_STATE = ("pd_kp", "pd_kd", "pd_max", "pd_target_quat", "pd_target_q", "pd_target_qd",
-                "joint_applied", "ctrl")
+                "joint_applied", "ctrl", "body_servo", "body_target_pos", "body_target_quat",
+                "body_target_vel", "body_target_angvel")
 _STATE_FILE_VERSION = 2
 
 
@@ -152,7 +165,9 @@ class World:
     slop : penetration (m) left alone, so resting contacts do not jitter.
     bounce_threshold : approach speed (m/s) below which restitution is ignored.
     penalty_stiffness, penalty_damping : N/m and N s/m of penalty contacts; default from the
-        lightest colliding body (see ``tumble.pipeline.contacts.penalty``).
+        lightest colliding body (see ``tumble.pipeline.contacts.penalty``). Geoms given their
+        own ``stiffness``/``damping`` (``ModelBuilder.add_geom``) override them for their
+        pairs; a geom stiffness too stiff for its body at this dt is warned about.
     slip_velocity : penalty friction's regularisation speed (m/s); default ``|g| dt``.
     projection_tolerance : largest row error (m, rad) past which projection runs; below it ERP
         alone pulls joints together, which dissipates less.
@@ -162,6 +177,13 @@ class World:
         2011: explicit torques predicted against the end-of-step state by a joints-only
         implicit solve). Same gains in all three; may be changed between steps. See
         ``tumble.pipeline.actuators``.
+    broadphase : how candidate geom pairs are found: 'sap' (sort and sweep) or 'grid'
+        (hashed uniform grid, cell twice the median AABB size; planes, walls and
+        heightfields kept out of it). Both give exactly the same pairs, so the contacts and
+        the motion do not depend on it, only the time; may be changed between steps.
+    parallel : step the worlds of a batch on all of Numba's threads (``numba.set_num_threads``
+        sets how many), each world bit-identical to the serial path. Default: when
+        ``nworld > 1``.
 
     The state arrays ``body_pos``, ``body_quat``, ``body_vel``, ``body_angvel`` are live
     views: write into them between steps to set the state.
@@ -172,7 +194,8 @@ class World:
                  cfm=1e-10, iterations=300, tolerance=1e-12, warm_start=True, projection=2,
                  projection_tolerance=5e-5, contact_erp=0.2, contact_cfm=0.0, slop=1e-4,
                  bounce_threshold=0.2, penalty_stiffness=None, penalty_damping=None,
-                 slip_velocity=None, contact_margin=0.01, pd="implicit"):
+                 slip_velocity=None, contact_margin=0.01, pd="implicit",
+                 broadphase="sap", parallel=None):
         if not isinstance(model, Model):
             raise ModelError(f"World needs a tumble Model, got {type(model).__name__}")
         self.model = model
@@ -227,7 +250,13 @@ class World:
         self.slip_velocity = None if slip_velocity is None else positive(
             slip_velocity, "world", "slip_velocity")
         self.pd = pd
+        self.broadphase = broadphase
+        if contact == "penalty":
+            self._warn_stiff_geoms()
         self.nworld = int(nworld)
+        if parallel is not None and not isinstance(parallel, (bool, np.bool_)):
+            raise ModelError(f"world: parallel must be True, False or None, got {parallel!r}")
+        self.parallel = self.nworld > 1 if parallel is None else bool(parallel)
         nb, nw, nj = model.nbody, self.nworld, model.njoint
         self._state = pipeline_step.StateArrays(
             body_pos=np.zeros((nw, nb, 3)), body_quat=np.zeros((nw, nb, 4)),
@@ -237,7 +266,9 @@ class World:
             pd_kp=np.zeros((nw, nj)), pd_kd=np.zeros((nw, nj)), pd_max=np.zeros((nw, nj)),
             pd_target_quat=np.zeros((nw, nj, 4)), pd_target_q=np.zeros((nw, nj, 3)),
             pd_target_qd=np.zeros((nw, nj, 3)), joint_applied=np.zeros((nw, nj, 3)),
-            ctrl=np.zeros((nw, model.nactuator)),
+            ctrl=np.zeros((nw, model.nactuator)), body_servo=np.zeros((nw, nb, 4)),
+            body_target_pos=np.zeros((nw, nb, 3)), body_target_quat=np.zeros((nw, nb, 4)),
+            body_target_vel=np.zeros((nw, nb, 3)), body_target_angvel=np.zeros((nw, nb, 3)),
             joint_q=np.zeros((nw, nj, 3)), joint_qd=np.zeros((nw, nj, 3)),
             joint_qrel=np.zeros((nw, nj, 4)), joint_force=np.zeros((nw, nj, 3)),
             joint_torque=np.zeros((nw, nj, 3)), contact_count=np.zeros(nw, np.int64),
@@ -266,6 +297,18 @@ class World:
             raise ModelError(f"world: pd must be one of {list(PD_MODES)}, got {value!r}")
         self._pd = value
 
+    @property
+    def broadphase(self):
+        """Broad phase: 'sap' or 'grid' (see the class docs)."""
+        return self._broadphase
+
+    @broadphase.setter
+    def broadphase(self, value):
+        if not isinstance(value, str) or value not in BROADPHASES:
+            raise ModelError(f"world: broadphase must be one of {list(BROADPHASES)}, "
+                             f"got {value!r}")
+        self._broadphase = value
+
     # ------------------------------------------------------------------ state
     def reset(self):
         """Back to the model's initial state at time 0; applied forces cleared."""
@@ -287,6 +330,11 @@ class World:
         s.pd_target_qd[:] = 0.0
         s.joint_applied[:] = 0.0
         s.ctrl[:] = 0.0
+        s.body_servo[:] = 0.0
+        s.body_target_pos[:] = self.model.body_pos0
+        s.body_target_quat[:] = self.model.body_quat0
+        s.body_target_vel[:] = 0.0
+        s.body_target_angvel[:] = 0.0
         self.time = 0.0
         self._update_joint_coordinates()
         # servos hold the built pose until told otherwise
@@ -373,7 +421,7 @@ class World:
         for field in ("body_pos", "body_quat", "body_vel", "body_angvel") + _EXTRA_STATE:
             value = getattr(state, field, None)
             if value is None:
-                if field.startswith("body"):
+                if field in ("body_pos", "body_quat", "body_vel", "body_angvel"):
                     raise StateError(f"set_state: {field} is missing")
                 if field not in _DRIVE_STATE:
                     arrays[field] = np.zeros_like(getattr(s, field))
@@ -520,7 +568,8 @@ class World:
         self._enforce_static()
         options = self._options()
         while True:
-            status, w, k, b, needed = pipeline_step.step_worlds(
+            stepper = step_worlds_parallel if self.parallel else pipeline_step.step_worlds
+            status, w, k, b, needed = stepper(
                 self.model.arrays, s, self._contacts, self._pairs, int(n), options)
             if status == pipeline_step.STEP_MORE_PAIRS:
                 self._pairs = np.zeros((2 * needed, 2), np.int32)
@@ -547,18 +596,29 @@ class World:
         for field, name in (("motor_target", "joint_motor_target"),
                             ("pd_target_quat", "pd_target_quat"), ("pd_target_q", "pd_target_q"),
                             ("pd_target_qd", "pd_target_qd"), ("joint_applied", "joint torque"),
-                            ("ctrl", "ctrl"), ("pd_kp", "joint_kp"), ("pd_kd", "joint_kd")):
+                            ("ctrl", "ctrl"), ("pd_kp", "joint_kp"), ("pd_kd", "joint_kd"),
+                            ("body_servo", "body servo gain"),
+                            ("body_target_pos", "body_target_pos"),
+                            ("body_target_quat", "body_target_quat"),
+                            ("body_target_vel", "body_target_vel"),
+                            ("body_target_angvel", "body_target_angvel")):
             a = getattr(s, field)
             bad = ~np.isfinite(a)
-            if field in ("pd_kp", "pd_kd"):
+            gain = field in ("pd_kp", "pd_kd", "body_servo")
+            if gain:
                 bad |= a < 0
             if bad.any():
                 idx = np.argwhere(bad)[0]
-                what = (f"joint '{m.joint_names[idx[1]]}'" if field != "ctrl"
-                        else f"actuator '{m.actuator_names[idx[1]]}'")
-                raise StateError(f"{what}: {name} must be finite" + (
-                    " and >= 0" if field in ("pd_kp", "pd_kd") else "")
-                    + f", got {a[tuple(idx)]!r}")
+                what = (f"actuator '{m.actuator_names[idx[1]]}'" if field == "ctrl" else
+                        f"body '{m.body_names[idx[1]]}'" if field.startswith("body")
+                        else f"joint '{m.joint_names[idx[1]]}'")
+                raise StateError(f"{what}: {name} must be finite" + (" and >= 0" if gain else "")
+                                 + f", got {a[tuple(idx)]!r}")
+        tq_norm = np.linalg.norm(s.body_target_quat, axis=-1)
+        if np.any((tq_norm < 1e-12) & (s.body_servo[..., 2:].max(-1) > 0)):
+            b = int(np.argwhere((tq_norm < 1e-12) & (s.body_servo[..., 2:].max(-1) > 0))[0][1])
+            raise StateError(f"body '{m.body_names[b]}': body_target_quat is zero")
+        s.body_target_quat[:] /= np.where(tq_norm > 0, tq_norm, 1.0)[..., None]
         if np.any(np.isnan(s.pd_max) | (s.pd_max <= 0)):
             j = int(np.argwhere(np.isnan(s.pd_max) | (s.pd_max <= 0))[0][1])
             raise StateError(f"joint '{m.joint_names[j]}': max_torque must be > 0")
@@ -586,7 +646,7 @@ class World:
             float(self.projection_tolerance), CONTACT_MODELS[self.contact],
             float(self.contact_erp), float(self.contact_cfm), float(self.slop),
             float(self.bounce_threshold), float(k), float(c), float(v_slip),
-            float(self.contact_margin), PD_MODES[self.pd])
+            float(self.contact_margin), PD_MODES[self.pd], BROADPHASES[self.broadphase])
 
     def penalty_parameters(self):
         """(stiffness N/m, damping N s/m) of penalty contacts at the current dt."""
@@ -595,6 +655,24 @@ class World:
         k, c = default_penalty(float(masses.min()) if masses.size else 1.0, self.dt)
         return (self.penalty_stiffness or k,
                 c if self.penalty_damping is None else self.penalty_damping)
+
+    def _warn_stiff_geoms(self):
+        """Warn about geoms whose own contact stiffness k makes their body's penalty spring
+        unstable at this dt: semi-implicit Euler needs sqrt(k / m) dt < 2 on one contact,
+        < 1 on four sharing the weight (see ``tumble.pipeline.contacts.penalty``)."""
+        m = self.model
+        for g in np.flatnonzero(m.geom_stiffness > 0):
+            b = m.geom_body[g]
+            if b < 0 or m.body_kind[b] != DYNAMIC:
+                continue
+            wh = np.sqrt(m.geom_stiffness[g] / m.body_mass[b]) * self.dt
+            if wh > 1.0:
+                warnings.warn(
+                    f"geom '{m.geom_names[g]}': contact stiffness {m.geom_stiffness[g]:.4g} N/m "
+                    f"on body '{m.body_names[b]}' ({m.body_mass[b]:.4g} kg) gives "
+                    f"sqrt(k/m) dt = {wh:.3g} at dt = {self.dt:g} s; penalty contacts are "
+                    f"stable below 1 (four contacts) to 2 (one): lower the stiffness or dt",
+                    TumbleWarning, stacklevel=3)
 
     def _grow_contacts(self, needed):
         old, n = self._contacts, self._contacts.depth.shape[1]
@@ -730,6 +808,56 @@ class World:
         """Live (njoint, 3) torques per DoF applied through the next ``step(n)`` call."""
         return self._view(self._state.joint_applied)
 
+    def set_body_servo(self, body, kp, kd, kp_rot=0.0, kd_rot=0.0, *, world=None):
+        """Switch on (or, with all gains 0, off) the implicit PD servo pulling ``body``'s COM
+        toward ``body_target_pos`` (kp N/m, kd N s/m) and its orientation toward
+        ``body_target_quat`` (kp_rot N m/rad, kd_rot N m s/rad): the hand of god.
+
+        It is an external force (from the world), solved implicitly with the joints and
+        contacts, so it is stable for any gains and step. Targets default to the built pose.
+        """
+        b = self.model.body_index(body)
+        wsl = self._world_slice(world)
+        where = f"body servo of '{self.model.body_names[b]}'"
+        self._state.body_servo[wsl, b] = [positive(v, where, n, allow_zero=True) for v, n in (
+            (kp, "kp"), (kd, "kd"), (kp_rot, "kp_rot"), (kd_rot, "kd_rot"))]
+
+    @property
+    def body_target_pos(self):
+        """Live body servo targets (nbody, 3): COM positions, m, world frame."""
+        return self._view(self._state.body_target_pos)
+
+    @body_target_pos.setter
+    def body_target_pos(self, value):
+        self._assign("body_target_pos", value)
+
+    @property
+    def body_target_quat(self):
+        """Live body servo targets (nbody, 4): orientations as ``body_quat`` (x, y, z, w)."""
+        return self._view(self._state.body_target_quat)
+
+    @body_target_quat.setter
+    def body_target_quat(self, value):
+        self._assign("body_target_quat", value)
+
+    @property
+    def body_target_vel(self):
+        """Live body servo target velocities (nbody, 3), m/s, world frame."""
+        return self._view(self._state.body_target_vel)
+
+    @body_target_vel.setter
+    def body_target_vel(self, value):
+        self._assign("body_target_vel", value)
+
+    @property
+    def body_target_angvel(self):
+        """Live body servo target angular velocities (nbody, 3), rad/s, world frame."""
+        return self._view(self._state.body_target_angvel)
+
+    @body_target_angvel.setter
+    def body_target_angvel(self, value):
+        self._assign("body_target_angvel", value)
+
     @property
     def ctrl(self):
         """Live MJCF actuator controls (nactuator,) or (nworld, nactuator)."""
@@ -761,7 +889,10 @@ class World:
         """Contacts of the last step in one world, as a ``Contacts`` of arrays (n contacts):
         ``geoms`` (n, 2), ``bodies`` (n, 2) (-1 = world), ``point`` (n, 3), ``normal`` (n, 3)
         from the first geom to the second, ``depth`` (n,) m, ``force`` (n, 3) on the second
-        body in the world frame, N (the first gets the opposite), ``normal_force`` (n,) N."""
+        body in the world frame, N (the first gets the opposite), ``normal_force`` (n,) N,
+        ``torque`` (n, 3) the torsional and rolling friction torque on the second body,
+        N m, world frame (zero without spin friction; a pure couple, acting besides
+        ``force`` at ``point``)."""
         w = self._world_slice(world) if world is not None else 0
         n = int(self._state.contact_count[w])
         c = self._contacts
@@ -769,8 +900,9 @@ class World:
         t1, t2 = _tangents(normal)
         imp = c.impulse[w, :n] / self.dt
         force = imp[:, :1] * normal + imp[:, 1:2] * t1 + imp[:, 2:3] * t2
+        torque = imp[:, 3:4] * normal + imp[:, 4:5] * t1 + imp[:, 5:6] * t2
         return Contacts(c.geom[w, :n].copy(), c.body[w, :n].copy(), point, normal,
-                        c.depth[w, :n].copy(), force, imp[:, 0].copy())
+                        c.depth[w, :n].copy(), force, imp[:, 0].copy(), torque)
 
     @property
     def lcp_fallbacks(self):
@@ -822,7 +954,8 @@ class World:
         for sign, side in ((-1.0, 0), (1.0, 1)):
             mine = con.bodies[:, side] == b
             f += sign * con.force[mine].sum(0)
-            t += sign * np.cross(con.point[mine] - com, con.force[mine]).sum(0)
+            t += sign * (np.cross(con.point[mine] - com, con.force[mine]).sum(0)
+                         + con.torque[mine].sum(0))
         return f, t
 
     # ----------------------------------------------------------------- forces
@@ -954,6 +1087,19 @@ class World:
         orbital = np.einsum("b,wbi->wbi", mass, np.cross(r, s.body_vel))
         spin = np.einsum("wbij,wbj->wbi", self._world_inertia(s.body_quat), s.body_angvel)
         return self._view((orbital + spin).sum(axis=1))
+
+    # ---------------------------------------------------------------- viewing
+    def record(self, **options):
+        """A ``tumble.Recorder`` collecting frames of this world; options as for Recorder."""
+        from .viewer.recorder import Recorder
+        return Recorder(self, **options)
+
+    def view(self, **options):
+        """Open the browser viewer on this world and serve until Ctrl-C (``block=False``
+        returns the Viewer at once); options as for ``tumble.viewer.Viewer``. Needs
+        ``tumble[viewer]``."""
+        from .viewer.app import view
+        return view(self, **options)
 
     def __repr__(self):
         return (f"<tumble.World: {self.model.nbody} bodies, dt={self.dt:g} s, t={self.time:g} s"

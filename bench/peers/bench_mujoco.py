@@ -79,7 +79,8 @@ def _diverged(d):
 
 # ----------------------------------------------------------------- chain ---
 
-def run_chain(args):
+def chain_xml():
+    """The chain scene as MJCF: nested bodies, each frame at its ball joint."""
     c = S.CHAIN
     links = S.chain_links()
     L = c["length"]
@@ -91,7 +92,14 @@ def run_chain(args):
         xml.append(_inertial((L / 2, 0, 0), ln["mass"], ln["inertia"]))
     xml.append("</body>" * len(links))
     xml.append("</worldbody></mujoco>")
-    m = mujoco.MjModel.from_xml_string("".join(xml))
+    return "".join(xml)
+
+
+def run_chain(args):
+    c = S.CHAIN
+    links = S.chain_links()
+    L = c["length"]
+    m = mujoco.MjModel.from_xml_string(chain_xml())
     d = mujoco.MjData(m)
     ids = _body_ids(m, ["l%d" % i for i in range(len(links))])
     masses = [ln["mass"] for ln in links]

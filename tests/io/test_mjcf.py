@@ -646,6 +646,10 @@ BAD = [
     ("<mujoco><default>\n<geom type='hexagon'/></default><worldbody><body name='b'>"
      "<freejoint/><geom size='0.1'/></body></worldbody></mujoco>",
      r"line 2, <geom>: attribute 'type': must be one of"),
+    ("<mujoco><worldbody><body name='b'><freejoint/>\n<geom size='0.1' condim='2'/>"
+     "</body></worldbody></mujoco>", r"line 2, <geom>: attribute 'condim': must be 1, 3, 4 or 6"),
+    ("<mujoco><worldbody><body name='b'><freejoint/>\n<geom size='0.1' friction='1 -0.1'/>"
+     "</body></worldbody></mujoco>", r"line 2, <geom>: attribute 'friction': must be >= 0"),
 ]
 
 
@@ -711,3 +715,31 @@ def test_mjcf_actuators_drive_the_joint_through_ctrl():
     # the position actuator pulls back toward 0 with kp 50: the motor's 1 N m holds 0.02 rad
     world.step(20000)
     assert world.joint_q[0, 0] == pytest.approx(1.0 / 50.0, abs=1e-4)
+
+
+def test_condim_4_and_6_bring_torsional_and_rolling_friction():
+    """MuJoCo's friction="slide torsion roll": torsion is simulated from condim 4, rolling at
+    condim 6 (MuJoCo's defaults 0.005 and 0.0001 where not given); at condim 3 they are not
+    used, and a non-default value there is reported."""
+    xml = """<mujoco>
+  <worldbody>
+    <geom name="floor" type="plane" size="1 1 0.1"/>
+    <body name="b" pos="0 0 1">
+      <freejoint/>
+      <geom name="g3" type="sphere" size="0.1" friction="0.7 0.02 0.001"/>
+      <geom name="g4" type="sphere" size="0.1" pos="0.3 0 0" condim="4" friction="0.7 0.02 0.001"/>
+      <geom name="g6" type="sphere" size="0.1" pos="0.6 0 0" condim="6" friction="0.7 0.02"/>
+      <geom name="g6d" type="sphere" size="0.1" pos="0.9 0 0" condim="6"/>
+    </body>
+  </worldbody>
+</mujoco>"""
+    with warnings.catch_warnings(record=True) as record:
+        warnings.simplefilter("always")
+        m = load_mjcf(xml)
+    spin = {n: (m.geom_torsional[m.geom_index(n)], m.geom_rolling[m.geom_index(n)])
+            for n in ("floor", "g3", "g4", "g6", "g6d")}
+    assert spin == {"floor": (0.0, 0.0), "g3": (0.0, 0.0), "g4": (0.02, 0.0),
+                    "g6": (0.02, 0.0001), "g6d": (0.005, 0.0001)}
+    assert m.geom_friction[m.geom_index("g6")] == 0.7
+    assert len(record) == 1
+    assert "geom friction (torsional, rolling) with condim 3" in str(record[0].message)

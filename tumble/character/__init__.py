@@ -4,7 +4,7 @@
     Ragdoll, build_ragdoll, ragdoll_from_motion, games105_ragdoll   ragdoll models + mapping
     set_pose, get_pose, joint_targets, rest_alignment, Pose    motion <-> world poses
     PDController, pd_torques, apply_joint_torques             joint PD (in-step or NumPy)
-    HandOfGod, jacobian_transpose_torques, StaticBalance, center_of_mass   root help, balance
+    HandOfGod, jacobian_transpose_torques, StaticBalance, Push, center_of_mass   balance
     MotionTracker, TrackingResult                             tracking motion capture
     SimbiconController, Gait, load_gait, gait_names, run_walk, WalkResult, Push, BipedMap
                                                               SIMBICON walking
@@ -13,7 +13,7 @@
 from .pose import Pose, get_pose, joint_targets, rest_alignment, set_pose
 from .ragdoll import (GAMES105_BOX_SCALES, Ragdoll, build_ragdoll, games105_ragdoll,
                       ragdoll_from_motion)
-from .balance import (HandOfGod, StaticBalance, center_of_mass, chain_to_root,
+from .balance import (HandOfGod, Push, StaticBalance, center_of_mass, chain_to_root,
                       jacobian_transpose_torques)
 from .pd import PDController, apply_joint_torques, pd_torques, targets_from_quats
 from .tracking import MotionTracker, TrackingResult

@@ -27,14 +27,18 @@ class HandOfGod:
     """External PD force and torque on ``body`` toward a target pose, world frame.
 
     kp (N/m), kd (N s/m), kp_rot (N m/rad), kd_rot (N m s/rad). Call ``apply(...)`` once per
-    control frame before ``world.step(n)``: the force acts through the n substeps, so its
-    gains are made stable for a period of ``n dt`` by evaluating the PD at the end of the
-    period (``mass`` and ``inertia`` are the character's, default its total mass and the
-    root body's largest moment times 10).
+    control frame before ``world.step(n)``.
+
+    implicit (default): the World's body servo (``World.set_body_servo``), solved with the
+    joints and contacts every substep: stable for any gains and step.
+    implicit=False: an explicit force and torque held through the n substeps, with gains
+    evaluated at the end of the period for the character's ``mass`` and ``inertia``
+    (default its total mass and 10 times the root body's largest moment); stiff gains on a
+    light root can still ring, which the implicit form avoids.
     """
 
     def __init__(self, world, body, kp=2000.0, kd=200.0, kp_rot=1000.0, kd_rot=100.0, *,
-                 mass=None, inertia=None):
+                 mass=None, inertia=None, implicit=True):
         self.world = world
         self.body = world.model.body_index(body)
         for name, v in (("kp", kp), ("kd", kd), ("kp_rot", kp_rot), ("kd_rot", kd_rot)):
@@ -47,10 +51,23 @@ class HandOfGod:
                         else positive(inertia, "HandOfGod", "inertia"))
         self.last_force = np.zeros(3)
         self.last_torque = np.zeros(3)
+        self.implicit = bool(implicit)
+        if self.implicit:
+            world.set_body_servo(self.body, kp, kd, kp_rot, kd_rot)
+
+    def release(self):
+        """Switch the hand of god off (no more external force on the body)."""
+        if self.implicit:
+            self.world.set_body_servo(self.body, 0.0, 0.0, 0.0, 0.0)
+        self.kp = self.kd = self.kp_rot = self.kd_rot = 0.0
 
     def apply(self, target_pos, target_quat, target_vel=(0, 0, 0), target_angvel=(0, 0, 0),
               *, substeps=1):
-        """Apply the PD force (N) and torque (N m) for the next ``world.step(substeps)``."""
+        """Aim the PD at this target for the next ``world.step(substeps)``.
+
+        Returns the force (N) and torque (N m) the PD asks for at the current state (for an
+        implicit hand of god an estimate: the solver applies the end-of-step value).
+        """
         w = self.world
         h = substeps * w.dt
         pos, quat = w.body_pos[self.body], w.body_quat[self.body]
@@ -61,13 +78,22 @@ class HandOfGod:
                                                          and np.all(np.isfinite(tq))):
             raise ModelError("HandOfGod.apply: target_pos must be (3,) and target_quat (4,), "
                              "finite")
-        kp, kd = _stable_gain(self.kp, self.kd, h, 1.0 / self.mass)
-        f = kp * (tp - pos - h * vel) - kd * (vel - np.asarray(target_vel, float))
         err = (Rotation.from_quat(tq) * Rotation.from_quat(quat).inv()).as_rotvec()
-        kr, kw = _stable_gain(self.kp_rot, self.kd_rot, h, 1.0 / self.inertia)
-        t = kr * (err - h * angvel) - kw * (angvel - np.asarray(target_angvel, float))
-        w.apply_force(self.body, f)
-        w.apply_torque(self.body, t)
+        tv, tw = np.asarray(target_vel, float), np.asarray(target_angvel, float)
+        if self.implicit:
+            w.body_target_pos[self.body] = tp
+            w.body_target_quat[self.body] = tq
+            w.body_target_vel[self.body] = tv
+            w.body_target_angvel[self.body] = tw
+            f = self.kp * (tp - pos) - self.kd * (vel - tv)
+            t = self.kp_rot * err - self.kd_rot * (angvel - tw)
+        else:
+            kp, kd = _stable_gain(self.kp, self.kd, h, 1.0 / self.mass)
+            f = kp * (tp - pos - h * vel) - kd * (vel - tv)
+            kr, kw = _stable_gain(self.kp_rot, self.kd_rot, h, 1.0 / self.inertia)
+            t = kr * (err - h * angvel) - kw * (angvel - tw)
+            w.apply_force(self.body, f)
+            w.apply_torque(self.body, t)
         self.last_force, self.last_torque = f, t
         return f, t
 
@@ -91,7 +117,7 @@ def _anchors(world, joints, w=0):
     out = np.zeros((len(joints), 3))
     for i, j in enumerate(joints):
         c = m.joint_child[j]
-        out[i] = s.body_pos[w, c] + Rotation.from_quat(s.body_quat[w, c]).apply(m.joint_anchor_b[j])
+        out[i] = s.body_pos[w, c] + Rotation.from_quat(s.body_quat[w, c]).apply(np.array(m.joint_anchor_b[j]))
     return out
 
 
@@ -138,14 +164,17 @@ class StaticBalance:
     feet : names of the two stance-foot joints (e.g. ankles); each leg's chain runs from
         its foot joint up to (not including) the root body's joint.
     pelvis : the root body (index or name). up : the world up axis, (3,).
-    kp_com (N/m), kd_com (N s/m): the horizontal virtual force on the COM toward the
-    centre of the feet; kp_upright (N m/rad), kd_upright: the virtual torque keeping the
+    kp_com (N/m), kd_com (N s/m), ki_com (N/(m s)): the horizontal virtual force on the COM
+    toward the centre of the feet; the integral term removes the offset the pose servos
+    leave, so the COM ends over the middle of the support and has the most room to
+    recover from a push. kp_upright (N m/rad), kd_upright: the virtual torque keeping the
     pelvis at its initial orientation, realised by the hips.
     Call ``apply(substeps)`` once per control frame, before ``world.step(substeps)``.
     """
 
-    def __init__(self, world, feet, pelvis, *, up=(0, 1, 0), kp_com=400.0, kd_com=80.0,
-                 kp_upright=300.0, kd_upright=30.0, feet_bodies=None, target_quat=None):
+    def __init__(self, world, feet, pelvis, *, up=(0, 1, 0), kp_com=3000.0, kd_com=500.0,
+                 ki_com=800.0, kp_upright=300.0, kd_upright=30.0, feet_bodies=None,
+                 target_quat=None, max_integral=80.0):
         m = world.model
         self.world = world
         self.pelvis = m.body_index(pelvis)
@@ -165,7 +194,9 @@ class StaticBalance:
             self.hips.append(top)
         self.feet_bodies = ([m.joint_child[self.chains[i][0]] for i in range(len(feet))]
                             if feet_bodies is None else [m.body_index(b) for b in feet_bodies])
-        self.kp_com, self.kd_com = kp_com, kd_com
+        self.kp_com, self.kd_com, self.ki_com = kp_com, kd_com, ki_com
+        self.max_integral = max_integral
+        self.integral = np.zeros(3)
         self.kp_upright, self.kd_upright = kp_upright, kd_upright
         self.target_quat = (np.array(world.body_quat[self.pelvis]) if target_quat is None
                             else np.asarray(target_quat, float))
@@ -184,7 +215,12 @@ class StaticBalance:
         d = target - c
         d -= (d @ self.up) * self.up
         vh = v - (v @ self.up) * self.up
-        f = self.kp_com * d - self.kd_com * vh
+        # integral of the COM error (N), clamped so a fall does not wind it up
+        self.integral += self.ki_com * d * substeps * w.dt
+        norm = np.linalg.norm(self.integral)
+        if norm > self.max_integral:
+            self.integral *= self.max_integral / norm
+        f = self.kp_com * d - self.kd_com * vh + self.integral
         tau = np.zeros((w.model.njoint, 3))
         for chain in self.chains:
             tau += jacobian_transpose_torques(w, chain, c, f / len(self.chains), base="child")
@@ -197,3 +233,29 @@ class StaticBalance:
         apply_joint_torques(w, tau)
         self.last_force = f
         return tau
+
+
+class Push:
+    """A perturbation: ``force`` (N, world) on ``body`` at ``point`` (default its COM) from
+    ``start`` for ``duration`` seconds of world time.
+
+    Call ``apply(world)`` before every ``world.step(n)``; it applies the force when the
+    coming steps fall in the window, scaled by the part of them that does.
+    """
+
+    def __init__(self, body, force, start, duration, point=None):
+        self.body, self.point = body, point
+        self.force = np.asarray(force, float)
+        if self.force.shape != (3,) or not np.all(np.isfinite(self.force)):
+            raise ModelError(f"Push: force must be a finite (3,) vector, got {force!r}")
+        self.start = float(start)
+        self.duration = positive(duration, "Push", "duration")
+
+    def apply(self, world, substeps=1):
+        """Apply the share of the push that falls in the next ``substeps`` steps."""
+        t0, t1 = world.time, world.time + substeps * world.dt
+        overlap = min(t1, self.start + self.duration) - max(t0, self.start)
+        if overlap > 1e-12:
+            world.apply_force(self.body, self.force * overlap / (t1 - t0), point=self.point)
+            return True
+        return False

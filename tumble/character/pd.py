@@ -137,9 +137,9 @@ def targets_from_quats(model, quats):
 class PDController:
     """A character's joint servos inside the compiled step.
 
-    world : the World to drive; kp, kd, max_torque : scalars, (njoint,) arrays or
-    {joint name: value} (joints left out of a dict get 0: no servo; max_torque default
-    unbounded). mode : 'implicit' (default), 'explicit' or 'stable', the World's ``pd``
+    world : the World to drive; kp, kd, max_torque : scalars (for every joint with a degree
+    of freedom), (njoint,) arrays or {joint name: value} (joints left out of a dict get 0:
+    no servo; max_torque default unbounded). mode : 'implicit' (default), 'explicit' or 'stable', the World's ``pd``
     switch for these same gains.
 
     ``set_targets(quats)`` takes (njoint, 4) joint-frame rotations (``World.joint_quat``'s
@@ -157,6 +157,11 @@ class PDController:
         if np.any(self.max_torque <= 0):
             raise ModelError("PDController: max_torque must be > 0")
         types = np.array(m.joint_type_names)
+        # a scalar gain means every joint that has a degree of freedom to servo
+        rigid = np.isin(types, ("fixed", "free"))
+        for name, given, arr in (("kp", kp, self.kp), ("kd", kd, self.kd)):
+            if np.ndim(given) == 0 and not isinstance(given, dict):
+                arr[rigid] = 0.0
         served = (self.kp > 0) | (self.kd > 0)
         bad = served & np.isin(types, ("fixed", "free"))
         if bad.any():

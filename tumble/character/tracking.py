@@ -98,11 +98,13 @@ class MotionTracker:
         """Put the ragdoll in the clip's pose (and velocities) at ``frame``."""
         set_pose(self.world, self.ragdoll, self.motion, frame)
 
-    def run(self, frames=None, *, start=0, push=None):
+    def run(self, frames=None, *, start=0, push=None, on_frame=None):
         """Track ``frames`` motion frames (default: the whole clip) from ``start``.
 
         push : optional callable ``push(world, frame)`` called every frame before stepping,
-            e.g. to apply a perturbation. Returns a :class:`TrackingResult`.
+            e.g. to apply a perturbation. on_frame : optional callable ``on_frame(world,
+            frame)`` called after every frame's steps (e.g. ``Recorder.capture``).
+        Returns a :class:`TrackingResult`.
         """
         F = self.motion.num_frames
         n = F - 1 - start if frames is None else int(frames)
@@ -123,6 +125,8 @@ class MotionTracker:
             if push is not None:
                 push(w, f)
             w.step(self.substeps)
+            if on_frame is not None:
+                on_frame(w, f)
             ang = quat_angle(np.asarray(w.joint_quat)[self.tracked], self.targets[f][self.tracked])
             out["time"][k] = w.time
             out["err"][k] = ang.mean()

@@ -58,6 +58,8 @@ class GeomSpec:
     size: object = None
     vertices: object = None
     friction: float = 1.0
+    torsional: float = 0.0
+    rolling: float = 0.0
     contype: int = 1
     conaffinity: int = 1
     margin: float = 0.0
@@ -373,7 +375,8 @@ def _assemble(builder, links, report, merge_hinges, collide_with_world, world_ge
             bpos, brot = body_pose[root[i]]
             pos = brot.inv().apply(np.asarray(g.pos, float) - bpos)
             quat = (brot.inv() * rotation(g.quat)).as_quat()
-        kw = dict(pos=pos, quat=quat, friction=g.friction, contype=g.contype,
+        kw = dict(pos=pos, quat=quat, friction=g.friction, torsional_friction=g.torsional,
+                  rolling_friction=g.rolling, contype=g.contype,
                   conaffinity=g.conaffinity, margin=g.margin, name=g.name)
         if g.type == "convex":
             kw["vertices"] = g.vertices

@@ -14,10 +14,13 @@ What is read
   capsule, cylinder, box, with ``fromto``; ellipsoid -> the convex hull of 130 surface
   points with the exact ellipsoid mass; mesh -> the convex hull of an STL or OBJ file's
   vertices or of inline ``vertex`` data), ``density``/``mass``, ``friction`` (sliding
-  coefficient), ``contype``/``conaffinity``, ``margin``; joints ``hinge``, ``slide``,
-  ``ball``, ``free`` (and ``<freejoint>``) with ``range``/``limited``, ``ref``, ``stiffness`` (a
-  spring toward the initial pose, run as the joint's implicit PD servo), ``damping``,
-  ``frictionloss``. Planes are infinite (their MJCF size only sets how they are drawn).
+  coefficient; with ``condim`` 4 also the torsional one and with ``condim`` 6 the rolling
+  one, as ``add_geom``'s ``torsional_friction``/``rolling_friction``; a pair takes the
+  larger of each, as MuJoCo does), ``contype``/``conaffinity``, ``margin``; joints
+  ``hinge``, ``slide``, ``ball``, ``free`` (and ``<freejoint>``) with ``range``/``limited``,
+  ``ref``, ``stiffness`` (a spring toward the initial pose, run as the joint's implicit PD
+  servo), ``damping``, ``frictionloss``. Planes are infinite (their MJCF size only sets
+  how they are drawn).
 * ``<contact><exclude body1 body2>``.
 * ``<actuator>``: ``motor``, ``position`` and the ``general`` actuators equivalent to them,
   on joints, read into :class:`ActuatorSpec` (see :func:`_add_actuators`).
@@ -30,7 +33,7 @@ initial pose is the model pose (MuJoCo's ``qpos0``), and joint limits are re-exp
 relative to it (``range - ref``).
 
 Everything the loader reads but does not simulate - elements (tendons, sensors,
-equality constraints, ...), physics attributes (armature, springref, condim, solref,
+equality constraints, ...), physics attributes (armature, springref, condim 1, solref,
 ...), and visual-only elements (lights, cameras, textures) - is named in ONE
 ``TumbleWarning`` per load, together with every merge. Purely cosmetic attributes
 (``rgba``, ``material``, ``group``, ``user``) are skipped silently.
@@ -61,7 +64,7 @@ _USED = {
     "body": {"name", "childclass", "mocap"} | _FRAME_ATTRS,
     "frame": {"name", "childclass"} | _FRAME_ATTRS,
     "geom": {"name", "type", "size", "fromto", "contype", "conaffinity", "friction", "mass",
-             "density", "margin", "mesh"} | _FRAME_ATTRS,
+             "density", "margin", "mesh", "condim"} | _FRAME_ATTRS,
     "joint": {"name", "type", "pos", "axis", "range", "limited", "damping", "frictionloss",
               "ref", "stiffness"},
     "freejoint": {"name"},
@@ -591,12 +594,24 @@ class _MJCF:
         else:
             pos, rot = self._pose(a, ppos, prot)
         fr = a.floats("friction", [1.0], min_n=1, max_n=3)
-        if fr[0] < 0.0:
-            raise a.error("friction", f"must be >= 0, got {fr[0]}")
-        if len(fr) > 1 and not (np.allclose(fr[1:], [0.005, 0.0001][:len(fr) - 1])):
-            self.report.ignore("geom friction (torsional, rolling)", self._loc(node))
+        if min(fr) < 0.0:
+            raise a.error("friction", f"must be >= 0, got {' '.join(f'{x:g}' for x in fr)}")
+        condim = a.int("condim", 3)
+        if condim not in (1, 3, 4, 6):
+            raise a.error("condim", f"must be 1, 3, 4 or 6, got {condim}")
+        # MuJoCo's defaults for the torsional and rolling coefficients (lengths, m)
+        spin = (fr + [0.005, 0.0001][len(fr) - 1:])[1:]
+        torsional = spin[0] if condim >= 4 else 0.0
+        rolling = spin[1] if condim == 6 else 0.0
+        if condim == 1:
+            self.report.ignore("geom condim 1 (frictionless: simulated with friction)",
+                               self._loc(node))
+        elif condim == 3 and not np.allclose(spin, [0.005, 0.0001]):
+            self.report.ignore("geom friction (torsional, rolling) with condim 3",
+                               self._loc(node))
         spec = GeomSpec(name=name, type=gtype, pos=pos, quat=rot.as_quat(),
-                        friction=fr[0], contype=a.int("contype", 1),
+                        friction=fr[0], torsional=torsional, rolling=rolling,
+                        contype=a.int("contype", 1),
                         conaffinity=a.int("conaffinity", 1), margin=a.nonneg("margin", 0.0),
                         where=node.where())
         props = self._shape(a, spec, gtype, size, rot)       # sets type, size, vertices

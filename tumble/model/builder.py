@@ -114,7 +114,8 @@ class ModelBuilder:
     def add_geom(self, body, type, size=None, *, radius=None, half_length=None, normal=None,
                  pos=(0.0, 0.0, 0.0), quat=(0.0, 0.0, 0.0, 1.0), friction=1.0, restitution=0.0,
                  density=None, contype=1, conaffinity=1, margin=0.0, vertices=None,
-                 heights=None, name=None):
+                 heights=None, name=None, rolling_friction=0.0, torsional_friction=0.0,
+                 stiffness=None, damping=None):
         """Attach a collision shape to ``body`` (index or name; None: the static world).
 
         type : 'plane', 'sphere', 'capsule', 'box', 'cylinder', 'convex' (the hull of
@@ -129,6 +130,19 @@ class ModelBuilder:
         pos, quat : pose of the geom in the body frame as given to ``add_body``
             (world frame for world geoms).
         friction, restitution : Coulomb coefficient (>= 0) and bounce (0..1).
+        rolling_friction, torsional_friction : lengths (m, >= 0, default 0): a contact
+            resists rolling (relative spin about its tangents) with a torque up to
+            ``rolling_friction`` times its normal force, and spinning about its normal with
+            up to ``torsional_friction`` times it (MuJoCo's 2nd and 3rd friction values).
+            A pair uses the larger value of its two geoms, like ``friction``.
+        stiffness, damping : this geom's contact spring (N/m, > 0) and damper (N s/m, >= 0);
+            default: the world's. Penalty contacts use them as ``k`` and ``c``; LCP and PGS
+            contacts become the soft constraint of that spring-damper (ERP = h k / (h k + c),
+            CFM = 1 / (h k + c), as for soft joints, resting depth m g / k above the slop).
+            A pair combines the stiffnesses given as springs in series (a geom without one
+            counts as rigid) and takes the larger damping given; a pair with no stiffness
+            uses the world's contact parameters, and a damping alone only affects penalty
+            contacts (see ``tumble.pipeline.contacts.softness``).
         density : kg/m^3 for this geom when the body's mass comes from its geoms.
         contype, conaffinity : collision bits (MuJoCo semantics: two geoms may collide
             when ``contype_a & conaffinity_b`` or ``contype_b & conaffinity_a``); set both
@@ -182,6 +196,11 @@ class ModelBuilder:
         elif normal is not None:
             raise ModelError(f"{where}: normal applies to planes only")
         fr = positive(friction, where, "friction", allow_zero=True)
+        roll = positive(rolling_friction, where, "rolling_friction", allow_zero=True)
+        tors = positive(torsional_friction, where, "torsional_friction", allow_zero=True)
+        kstiff = 0.0 if stiffness is None else positive(stiffness, where, "stiffness")
+        cdamp = -1.0 if damping is None else positive(damping, where, "damping",
+                                                      allow_zero=True)
         rest = positive(restitution, where, "restitution", allow_zero=True)
         if rest > 1.0:
             raise ModelError(f"{where}: restitution must be in [0, 1], got {restitution!r}")
@@ -194,6 +213,7 @@ class ModelBuilder:
         self._geom_names.add(gname)
         self._geoms.append(dict(name=gname, body=body_idx, type=type, size=geom_size, pos=gpos,
                                 quat=gquat, friction=fr, restitution=rest, density=dens,
+                                rolling=roll, torsional=tors, stiffness=kstiff, damping=cdamp,
                                 contype=int(contype), conaffinity=int(conaffinity),
                                 margin=gmargin, mesh=mesh, hfield=hfield))
         return len(self._geoms) - 1
@@ -237,7 +257,8 @@ class ModelBuilder:
     # ------------------------------------------------------------------ joints
     def add_joint(self, name, type, parent, child, anchor=None, axis=None, axis2=None, *,
                   limit=None, damping=0.0, friction=0.0, motor_max_force=0.0, erp=None,
-                  cfm=None, spring=None, collide=False, kp=0.0, kd=0.0, max_torque=None):
+                  cfm=None, spring=None, collide=False, kp=0.0, kd=0.0, max_torque=None,
+                  cone=None, twist=None):
         """Join ``child`` to ``parent`` (index or name; None: the world). Returns the index.
 
         type : 'ball', 'hinge' (axis), 'universal' (axis on the parent, axis2 on the
@@ -250,6 +271,16 @@ class ModelBuilder:
         limit : (lower, upper) for hinge (rad) and slider (m) joints; for universal and
             ball joints the same bounds hold for every coordinate (the two Cardan angles,
             or the three rotation-vector components in the joint frame).
+        cone, twist : ball joints only, instead of ``limit``: the swing-twist limits of the
+            joint frame's x axis (the twist axis; orient it with ``axis``). The child's
+            x axis may swing away from the parent's by at most ``cone`` (rad, in (0, pi)),
+            or within the elliptical cone ``(swing_y, swing_z)``: swinging about the joint
+            frame's y axis (tilting x toward -z) by up to swing_y, about z by up to swing_z,
+            and in between on the ellipse ``(a_y / swing_y)^2 + (a_z / swing_z)^2 <= 1`` of
+            the swing's rotation vector (a_y, a_z). ``twist = (lo, hi)`` (rad, within
+            [-pi, pi]) bounds the rotation about the child's own x axis that remains once
+            the swing is taken out (the swing-twist decomposition ``rel = swing * twist``).
+            See ``tumble.pipeline.joints.ball``.
         damping, friction : viscous (N m s/rad, N s/m) and dry (N m, N) resistance on every
             degree of freedom, applied implicitly by the solver.
         motor_max_force : bound (N m or N) of the velocity motor on every degree of freedom;
@@ -320,6 +351,7 @@ class ModelBuilder:
             lim = vector(limit, 2, where, "limit")
             if lim[0] > lim[1]:
                 raise ModelError(f"{where}: limit lower {lim[0]} is above upper {lim[1]}")
+        cone_yz, twist_lh = self._cone_twist(type, cone, twist, limit, where)
         for field, v in (("erp", erp), ("cfm", cfm)):
             if v is not None:
                 positive(v, where, field, allow_zero=True)
@@ -335,7 +367,8 @@ class ModelBuilder:
             if k == 0.0 and cdamp == 0.0:
                 raise ModelError(f"{where}: spring needs stiffness or damping > 0")
         entry = dict(name=name, type=type, parent=p, child=c, anchor=anchor_w, frame=frame,
-                     limit=lim, damping=positive(damping, where, "damping", allow_zero=True),
+                     limit=lim, cone=cone_yz, twist=twist_lh,
+                     damping=positive(damping, where, "damping", allow_zero=True),
                      friction=positive(friction, where, "friction", allow_zero=True),
                      motor_max=positive(motor_max_force, where, "motor_max_force",
                                         allow_zero=True),
@@ -357,6 +390,41 @@ class ModelBuilder:
         if not collide and type != "free":      # a free joint joins nothing to filter
             self._excluded.add((min(p, c), max(p, c)))
         return len(self._joints) - 1
+
+    @staticmethod
+    def _cone_twist(type, cone, twist, limit, where):
+        """Validated (swing_y, swing_z) and (twist_lo, twist_hi); (0, 0) and (1, -1) for none."""
+        cone_yz, twist_lh = np.zeros(2), np.array([1.0, -1.0])
+        if cone is None and twist is None:
+            return cone_yz, twist_lh
+        if type != "ball":
+            raise ModelError(f"{where}: cone and twist limits apply to ball joints, not {type}")
+        if limit is not None:
+            raise ModelError(f"{where}: give limit (a box on the rotation vector) or "
+                             f"cone/twist, not both")
+        if cone is not None:
+            try:
+                c = np.array(cone, dtype=float).reshape(-1)
+            except (TypeError, ValueError):
+                c = np.zeros(0)
+            if c.size == 1:
+                c = np.array([c[0], c[0]])
+            if c.size != 2:
+                raise ModelError(f"{where}: cone must be an angle or (swing_y, swing_z) in rad, "
+                                 f"got {cone!r}")
+            for field, v in zip(("cone swing_y", "cone swing_z"), c):
+                if not (np.isfinite(v) and 0.0 < v < np.pi):
+                    raise ModelError(f"{where}: {field} must be in (0, pi) rad, got {v!r}")
+            cone_yz = c
+        if twist is not None:
+            t = vector(twist, 2, where, "twist")
+            if t[0] > t[1]:
+                raise ModelError(f"{where}: twist lower {t[0]} is above upper {t[1]}")
+            if t[0] < -np.pi or t[1] > np.pi:
+                raise ModelError(f"{where}: twist must lie within [-pi, pi] rad, got "
+                                 f"{t.tolist()}")
+            twist_lh = t
+        return cone_yz, twist_lh
 
     def add_actuator(self, name, joint, kind="motor", *, axis=None, dof=None, gear=1.0, kp=0.0,
                      kv=0.0, ctrlrange=None, forcerange=None):
@@ -466,6 +534,10 @@ class ModelBuilder:
                  pos=np.zeros((ng, 3)), quat=np.zeros((ng, 4)),
                  friction=np.array([x["friction"] for x in self._geoms], dtype=float),
                  restitution=np.array([x["restitution"] for x in self._geoms], dtype=float),
+                 rolling=np.array([x["rolling"] for x in self._geoms], dtype=float),
+                 torsional=np.array([x["torsional"] for x in self._geoms], dtype=float),
+                 stiffness=np.array([x["stiffness"] for x in self._geoms], dtype=float),
+                 damping=np.array([x["damping"] for x in self._geoms], dtype=float),
                  contype=np.array([x["contype"] for x in self._geoms], dtype=np.uint32),
                  conaffinity=np.array([x["conaffinity"] for x in self._geoms], dtype=np.uint32),
                  margin=np.array([x["margin"] for x in self._geoms], dtype=float),
@@ -549,7 +621,9 @@ class ModelBuilder:
                    child=np.array([j["child"] for j in self._joints], np.int32),
                    anchor_a=np.zeros((nj, 3)), anchor_b=np.zeros((nj, 3)),
                    frame_a=np.zeros((nj, 4)), frame_b=np.zeros((nj, 4)),
-                   limit=np.array([j["limit"] for j in self._joints]).reshape(nj, 2))
+                   limit=np.array([j["limit"] for j in self._joints]).reshape(nj, 2),
+                   cone=np.array([j["cone"] for j in self._joints], float).reshape(nj, 2),
+                   twist=np.array([j["twist"] for j in self._joints], float).reshape(nj, 2))
         for key in ("erp", "cfm", "stiffness", "soft_damping", "damping", "friction", "motor_max",
                     "kp", "kd", "max_torque"):
             out[key] = np.array([j[key] for j in self._joints], dtype=float)

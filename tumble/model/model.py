@@ -38,6 +38,8 @@ ModelArrays = namedtuple("ModelArrays", [
     "joint_friction",     # (njoint,) dry friction on each DoF, N m or N
     "joint_motor_max",    # (njoint,) motor force/torque bound, 0: no motor
     "joint_limit",        # (njoint, 2) lower, upper (lower > upper: no limit)
+    "joint_cone",         # (njoint, 2) ball swing cone half-angles about y, z, rad (0: none)
+    "joint_twist",        # (njoint, 2) ball twist lower, upper, rad (lower > upper: none)
     "joint_core_rows",    # (njoint,) rows that hold the joint together
     "joint_row_start",    # (njoint,) first row of each joint
     "joint_row_count",    # (njoint,) rows of each joint (core + 4 per DoF)
@@ -48,6 +50,10 @@ ModelArrays = namedtuple("ModelArrays", [
     "geom_quat",          # (ngeom, 4) orientation in the body's COM frame
     "geom_friction",      # (ngeom,) Coulomb coefficient
     "geom_restitution",   # (ngeom,) coefficient of restitution
+    "geom_rolling",       # (ngeom,) rolling friction, m (torque per normal force)
+    "geom_torsional",     # (ngeom,) torsional friction, m (torque per normal force)
+    "geom_stiffness",     # (ngeom,) contact stiffness, N/m (0: the world's)
+    "geom_damping",       # (ngeom,) contact damping, N s/m (< 0: the world's)
     "geom_contype",       # (ngeom,) uint32 collision type bits
     "geom_conaffinity",   # (ngeom,) uint32 collision affinity bits
     "geom_margin",        # (ngeom,) contact margin, m
@@ -94,10 +100,14 @@ class Model:
     body_ipos, body_iquat : the COM principal frame in the body frame the user gave.
     geom_names, geom_body (-1 = world), geom_type (codes of GEOM_TYPES), geom_size (ngeom, 3),
     geom_pos, geom_quat (pose in the owning body's COM principal frame, or world),
-    geom_friction, geom_restitution, geom_contype, geom_conaffinity.
+    geom_friction, geom_restitution, geom_contype, geom_conaffinity,
+    geom_rolling, geom_torsional (m), geom_stiffness (N/m, 0: the world's),
+    geom_damping (N s/m, < 0: the world's).
     joint_names, joint_type_names, joint_parent (-1 = world), joint_child, joint_ndof,
-    joint_limit (njoint, 2), joint_damping, joint_friction, joint_motor_max, and the
-    frames and anchors of each joint in its bodies (see ``ModelArrays``).
+    joint_limit (njoint, 2), joint_cone (njoint, 2: ball swing half-angles about the joint
+    frame's y and z, 0: none), joint_twist (njoint, 2: lower > upper: none), joint_damping,
+    joint_friction, joint_motor_max, and the frames and anchors of each joint in its bodies
+    (see ``ModelArrays``).
     joint_kp, joint_kd, joint_max_torque : (njoint,) default PD servo gains and bounds.
     actuator_names, actuator_joint, actuator_kind ('motor'/'position' names in
     actuator_kind_names), actuator_gear, actuator_ctrlrange (nact, 2), ... (see
@@ -127,6 +137,10 @@ class Model:
         self.geom_quat = _frozen(geoms["quat"])
         self.geom_friction = _frozen(geoms["friction"])
         self.geom_restitution = _frozen(geoms["restitution"])
+        self.geom_rolling = _frozen(geoms["rolling"])
+        self.geom_torsional = _frozen(geoms["torsional"])
+        self.geom_stiffness = _frozen(geoms["stiffness"])
+        self.geom_damping = _frozen(geoms["damping"])
         self.geom_contype = _frozen(geoms["contype"])
         self.geom_conaffinity = _frozen(geoms["conaffinity"])
         self.geom_margin = _frozen(geoms["margin"])
@@ -137,8 +151,8 @@ class Model:
         self.joint_type_names = list(joints["type_names"])
         for key in ("type", "parent", "child", "anchor_a", "anchor_b", "frame_a", "frame_b",
                     "erp", "cfm", "stiffness", "soft_damping", "damping", "friction",
-                    "motor_max", "limit", "core_rows", "row_start", "row_count", "ndof",
-                    "kp", "kd", "max_torque"):
+                    "motor_max", "limit", "cone", "twist", "core_rows", "row_start",
+                    "row_count", "ndof", "kp", "kd", "max_torque"):
             setattr(self, "joint_" + key, _frozen(joints[key]))
         if actuators is None:
             actuators = dict(names=[], joint=np.zeros(0, np.int32), kind=np.zeros(0, np.int32),
@@ -167,10 +181,13 @@ class Model:
                                       "type", "parent", "child", "anchor_a", "anchor_b",
                                       "frame_a", "frame_b", "erp", "cfm", "stiffness",
                                       "soft_damping", "damping", "friction", "motor_max",
-                                      "limit", "core_rows", "row_start", "row_count")},
+                                      "limit", "cone", "twist", "core_rows", "row_start",
+                                      "row_count")},
                                   **{k: getattr(self, k) for k in (
                                       "geom_type", "geom_body", "geom_size", "geom_pos",
                                       "geom_quat", "geom_friction", "geom_restitution",
+                                      "geom_rolling", "geom_torsional", "geom_stiffness",
+                                      "geom_damping",
                                       "geom_contype", "geom_conaffinity", "geom_margin",
                                       "geom_dataid", "exclude_keys")},
                                   **{k: _frozen(geoms[k]) for k in (

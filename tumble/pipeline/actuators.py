@@ -32,10 +32,11 @@ from numba import njit
 
 from ..math.quat import quat_conj, quat_log, quat_mul, quat_rotate
 from .integrate import integrate_velocities
+from .joints.common import INF, angular_row, clear_row, linear_row
 from .joints.rows import _dof_velocity, build_joint_rows, joint_dofs
 from .joints.types import ROWS_PER_DOF
 from .solvers.direct import solve_direct
-from .joints.servo import pd_error, servo_active
+from .joints.servo import pd_error, servo_active, servo_row_terms
 
 PD_IMPLICIT, PD_EXPLICIT, PD_STABLE = 0, 1, 2
 PD_MODES = {"implicit": PD_IMPLICIT, "explicit": PD_EXPLICIT, "stable": PD_STABLE}
@@ -164,3 +165,50 @@ def stable_servo_forces(m, pos, quat, vel, angvel, drive, h, o_erp, o_cfm, gyros
                 for k in range(3):
                     force[body, k] += rows.J[r, o + k] * p
                     torque[body, k] += rows.J[r, o + 3 + k] * p
+
+
+@njit(cache=True)
+def servoed_bodies(body_servo):
+    """Indices of the bodies whose servo is on in any world: (ns,) int64."""
+    nw, nb = body_servo.shape[0], body_servo.shape[1]
+    on = np.zeros(nb, np.bool_)
+    for w in range(nw):
+        for b in range(nb):
+            for k in range(4):
+                if body_servo[w, b, k] > 0.0:
+                    on[b] = True
+    return np.flatnonzero(on)
+
+
+@njit(cache=True)
+def body_servo_rows(pos, quat, servoed, gains, target_pos, target_quat, target_vel,
+                    target_angvel, h, rows, r0):
+    """Six implicit PD rows per servoed body from row ``r0``: its COM toward ``target_pos``
+    along world x, y, z and its orientation toward ``target_quat`` about them.
+
+    Each row is the implicit-Euler spring-damper of ``joints.servo.servo_row_terms`` between
+    the body and the world, so the hand of god is stable for any gains and step.
+    gains : (nbody, 4) kp, kd, kp_rot, kd_rot of one world; targets (nbody, ...), world.
+    """
+    zero = (0.0, 0.0, 0.0)
+    r = r0
+    for i in range(servoed.shape[0]):
+        b = servoed[i]
+        rv = quat_log(quat_mul(target_quat[b], quat_conj(quat[b])))
+        for k in range(3):
+            e = (1.0 if k == 0 else 0.0, 1.0 if k == 1 else 0.0, 1.0 if k == 2 else 0.0)
+            kp, kd = gains[b, 0], gains[b, 1]
+            if kp > 0.0 or kd > 0.0:
+                rhs, cfm = servo_row_terms(kp, kd, h, target_pos[b, k] - pos[b, k],
+                                           target_vel[b, k])
+                linear_row(rows, r, -1, b, e, zero, zero, rhs, cfm, -INF, INF)
+            else:
+                clear_row(rows, r, -1, b)
+            kp, kd = gains[b, 2], gains[b, 3]
+            if kp > 0.0 or kd > 0.0:
+                rhs, cfm = servo_row_terms(kp, kd, h, rv[k], target_angvel[b, k])
+                angular_row(rows, r + 3, -1, b, e, rhs, cfm, -INF, INF)
+            else:
+                clear_row(rows, r + 3, -1, b)
+            r += 1
+        r += 3

@@ -1,6 +1,6 @@
 """Stage 1 of a step: find the contacts.
 
-    geom world poses -> AABBs -> broad phase (sort and sweep) -> filtering -> narrow phase
+    geom world poses -> AABBs -> broad phase (sort and sweep or grid) -> filtering -> narrow phase
 
 Filtering drops pairs on the same body, pairs where neither body can move, pairs whose
 collision bits do not match (MuJoCo's contype/conaffinity rule) and excluded body pairs
@@ -12,7 +12,7 @@ from numba import njit
 
 from ..math.quat import quat_mul, quat_rotate
 from ..model.model import DYNAMIC
-from .collision.broadphase import broadphase_pairs
+from .collision.broadphase import BROADPHASE_SAP, overlapping_pairs
 from .collision.dispatch import collide_geoms, geom_aabb_any
 
 # What collide_world reports besides the contact count.
@@ -73,12 +73,14 @@ def may_collide(m, ga, gb, nbody):
 
 @njit(cache=True)
 def collide_world(m, pos, quat, gpos, gquat, aabb_lo, aabb_hi, pairs, con, prev_count, prev,
-                  world_margin):
+                  world_margin, broadphase=BROADPHASE_SAP):
     """Contacts of one world, written into ``con`` (a ContactArrays view of this world).
 
     ``prev`` holds last step's contacts (``prev_count`` of them), to carry impulses over.
     ``world_margin`` (m) is the least margin of every geom: contacts are found that far
     apart, so a fast body meets its contact before it sinks in (speculative contacts).
+    ``broadphase`` is ``collision.broadphase.BROADPHASE_SAP`` or ``BROADPHASE_GRID``; both
+    give the same pairs in the same order, so the contacts do not depend on it.
     Returns (status, count): status COLLIDE_PAIRS_FULL or COLLIDE_CONTACTS_FULL asks the
     caller for larger buffers (``count`` is then the size needed).
     """
@@ -90,11 +92,12 @@ def collide_world(m, pos, quat, gpos, gquat, aabb_lo, aabb_hi, pairs, con, prev_
         for k in range(3):
             aabb_lo[g, k] = lo[k]
             aabb_hi[g, k] = hi[k]
-    npair = broadphase_pairs(aabb_lo, aabb_hi, pairs, m.geom_body)
+    npair = overlapping_pairs(broadphase, aabb_lo, aabb_hi, pairs, m.geom_body)
     if npair > pairs.shape[0]:
         return COLLIDE_PAIRS_FULL, npair
     cap = con.depth.shape[0]
-    count = 0
+    # np.int64, not 0: a loop-carried literal would compile every pair routine twice
+    count = np.int64(0)
     p = 0                                   # cursor into the previous contacts
     for i in range(npair):
         ga, gb = pairs[i, 0], pairs[i, 1]
@@ -115,12 +118,12 @@ def collide_world(m, pos, quat, gpos, gquat, aabb_lo, aabb_hi, pairs, con, prev_
             con.body[c, 1] = m.geom_body[gb]
             con.friction[c] = max(m.geom_friction[ga], m.geom_friction[gb])
             con.restitution[c] = max(m.geom_restitution[ga], m.geom_restitution[gb])
-            for k in range(3):
+            for k in range(con.impulse.shape[1]):
                 con.impulse[c, k] = 0.0
             q = p
             while q < prev_count and prev.geom[q, 0] == ga and prev.geom[q, 1] == gb:
                 if prev.feature[q] == con.feature[c]:
-                    for k in range(3):
+                    for k in range(con.impulse.shape[1]):
                         con.impulse[c, k] = prev.impulse[q, k]
                     break
                 q += 1

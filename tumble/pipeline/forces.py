@@ -4,12 +4,11 @@ Gravity plus the user's applied forces (``World.apply_force``); later stages add
 actuators. The gyroscopic term is treated in ``integrate.py``, where its explicit or
 implicit form is chosen.
 """
-from numba import njit
-
+from .._jit import noalloc
 from ..model.model import DYNAMIC
 
 
-@njit(cache=True)
+@noalloc
 def accumulate_forces(m, applied_force, applied_torque, force_out, torque_out):
     """Total force (N) and torque (N m) on each body about its COM, world frame.
 

@@ -21,6 +21,7 @@ import math
 
 from numba import njit
 
+from .._jit import noalloc
 from ..math.quat import quat_integrate_exp, quat_integrate_linear, quat_rotate, quat_rotate_inv
 from ..model.model import DYNAMIC, STATIC
 
@@ -50,7 +51,7 @@ def _solve3(a, r):
             (c02 * r[0] + c12 * r[1] + c22 * r[2]) * inv)
 
 
-@njit(cache=True)
+@noalloc
 def implicit_gyroscopic(inertia, w0, tau, h):
     """Body-frame angular velocity after one implicit-midpoint step of Euler's equations.
 
@@ -80,7 +81,7 @@ def implicit_gyroscopic(inertia, w0, tau, h):
     return w
 
 
-@njit(cache=True)
+@noalloc
 def integrate_velocities(m, quat, vel, angvel, force, torque, h, gyro_mode):
     """``v += h f / m``; ``w`` from Euler's equations with the chosen gyroscopic form.
 
@@ -112,7 +113,7 @@ def integrate_velocities(m, quat, vel, angvel, force, torque, h, gyro_mode):
         angvel[b, 0], angvel[b, 1], angvel[b, 2] = w[0], w[1], w[2]
 
 
-@njit(cache=True)
+@noalloc
 def integrate_positions(m, pos, quat, vel, angvel, h, quat_mode):
     """``x += h v`` and the orientation update with the new velocities; static bodies stay."""
     for b in range(pos.shape[0]):
@@ -127,7 +128,7 @@ def integrate_positions(m, pos, quat, vel, angvel, h, quat_mode):
         quat[b, 0], quat[b, 1], quat[b, 2], quat[b, 3] = q[0], q[1], q[2], q[3]
 
 
-@njit(cache=True)
+@noalloc
 def first_bad_body(pos, quat, vel, angvel, limit):
     """Index of the first body whose state is non-finite or beyond ``limit``, else -1.
 

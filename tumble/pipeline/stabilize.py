@@ -13,76 +13,107 @@ exceeds a tolerance and ERP keeps small errors in check.
 import numpy as np
 from numba import njit
 
+from .._jit import noalloc
 from ..math.quat import quat_exp, quat_mul, quat_normalize
 from .joints.rows import build_joint_rows
 from .solvers.common import world_inverse_inertia
-from .solvers.direct import assemble, cholesky_solve
+from .solvers.direct import assemble, cholesky_apply, cholesky_factor, row_responses
+from .solvers.tree import tree_factor, tree_plan, tree_solve
 
 # Relative regularisation of the projection system: keeps redundant rows (loops) solvable.
 _REGULARISATION = 1e-10
 
 
-@njit(cache=True, inline="always")
-def _rigid(m, j):
-    """Soft joints (a spring, or their own CFM) are meant to give: never projected."""
-    return m.joint_stiffness[j] == 0.0 and m.joint_soft_damping[j] == 0.0 and m.joint_cfm[j] <= 0.0
+@noalloc
+def _rigid_core_rows(m, rows, idx):
+    """Count (and, if ``idx`` has room, list) the core rows of rigid joints: soft joints (a
+    spring, or their own CFM) are meant to give, so they are never projected. Their bodies
+    are written into ``rows`` as build_joint_rows writes them."""
+    n = 0
+    for j in range(m.joint_type.shape[0]):
+        if m.joint_stiffness[j] != 0.0 or m.joint_soft_damping[j] != 0.0 or m.joint_cfm[j] > 0.0:
+            continue
+        for r in range(m.joint_row_start[j], m.joint_row_start[j] + m.joint_core_rows[j]):
+            if n < idx.shape[0]:
+                idx[n] = r
+                rows.body_a[r] = m.joint_parent[j]
+                rows.body_b[r] = m.joint_child[j]
+            n += 1
+    return n
 
 
 @njit(cache=True)
 def project_joints(m, pos, quat, vel, angvel, drive, rows, inv_inertia, iterations,
                    tolerance):
     """Move bodies so every rigid joint's core rows hold at the position level, once some
-    row's error exceeds ``tolerance`` (m or rad); below it ERP alone corrects the drift."""
-    nj = m.joint_type.shape[0]
-    n = 0
-    for j in range(nj):
-        if _rigid(m, j):
-            n += m.joint_core_rows[j]
+    row's error exceeds ``tolerance`` (m or rad); below it ERP alone corrects the drift.
+
+    Each Gauss-Newton step solves ``(J M^-1 J^T + R) y = -C`` (R: the relative
+    regularisation) in linear time over the joints' tree (``solvers/tree.py``), or densely
+    when the joints form loops."""
+    n = _rigid_core_rows(m, rows, np.empty(0, np.int64))
     if n == 0:
         return
     idx = np.empty(n, np.int64)
-    dv = np.zeros((n, 12))
-    A = np.zeros((n, n))
-    b = np.zeros(n)
-    work = np.zeros((n, n))
-    zero = np.zeros_like(vel)
+    _rigid_core_rows(m, rows, idx)
     nb = pos.shape[0]
-    drot = np.zeros((nb, 3))
+    tree, plan = tree_plan(rows, idx, n, m.body_inv_mass, nb)
+    nd = 0 if tree else n
+    _project(m, pos, quat, drive, rows, inv_inertia, iterations, tolerance, idx, n,
+             tree, plan, np.zeros((n, 12)), np.zeros(n), np.zeros((nd, nd)), np.zeros((nd, nd)),
+             np.zeros(n), np.zeros(n), np.zeros((nb, 6)), np.zeros((nb, 6)), np.zeros_like(vel))
+
+
+@noalloc
+def _project(m, pos, quat, drive, rows, inv_inertia, iterations, tolerance, idx, n, tree,
+             plan, dv, b, A, work, reg, y, u, fzero, zero):
+    """The Gauss-Newton iterations of ``project_joints`` on its work arrays."""
+    nb = pos.shape[0]
     for it in range(iterations):
         # with h = 1 and ERP = 1 each core row's rhs is minus its position error
         build_joint_rows(m, pos, quat, zero, zero, drive, 1.0, 1.0, 0.0, rows, False)
         world_inverse_inertia(m, quat, inv_inertia)
-        k = 0
-        for j in range(nj):
-            if not _rigid(m, j):
-                continue
-            for r in range(m.joint_row_start[j], m.joint_row_start[j] + m.joint_core_rows[j]):
-                idx[k] = r
-                rows.cfm[r] = 0.0
-                k += 1
-        assemble(rows, idx, n, m.body_inv_mass, inv_inertia, zero, zero, dv, A, b)
+        for i in range(n):
+            rows.cfm[idx[i]] = 0.0
+        if tree:
+            row_responses(rows, idx, n, m.body_inv_mass, inv_inertia, zero, zero, dv, b)
+            for i in range(n):
+                a = 0.0
+                for c in range(12):
+                    a += rows.J[idx[i], c] * dv[i, c]
+                reg[i] = _REGULARISATION * a + 1e-300
+        else:
+            assemble(rows, idx, n, m.body_inv_mass, inv_inertia, zero, zero, dv, A, b)
+            for i in range(n):
+                A[i, i] += _REGULARISATION * A[i, i] + 1e-300
         biggest = 0.0
         for i in range(n):
             biggest = max(biggest, abs(b[i]))
-            A[i, i] += _REGULARISATION * A[i, i] + 1e-300
         if biggest < (tolerance if it == 0 else 1e-12):
             return
-        y, ok = cholesky_solve(A, b, n, work)
-        if not ok:
-            return
-        drot[:] = 0.0
-        for i in range(n):
-            r = idx[i]
-            for side in range(2):
-                body = rows.body_a[r] if side == 0 else rows.body_b[r]
-                if body < 0:
-                    continue
-                o = 6 * side
-                for c in range(3):
-                    pos[body, c] += dv[i, o + c] * y[i]
-                    drot[body, c] += dv[i, o + 3 + c] * y[i]
+        if tree:
+            # K [u; -y] = [0; b]: u = M^-1 J^T y, each body's displacement and rotation
+            if not tree_factor(plan, rows, idx, reg, m.body_inv_mass, inv_inertia, nb):
+                return
+            tree_solve(plan, nb, fzero, b, u, y)
+        else:
+            if not cholesky_factor(A, n, work):
+                return
+            cholesky_apply(work, b, n, y)
+            u[:] = 0.0
+            for i in range(n):
+                r = idx[i]
+                for side in range(2):
+                    body = rows.body_a[r] if side == 0 else rows.body_b[r]
+                    if body < 0:
+                        continue
+                    for c in range(6):
+                        u[body, c] += dv[i, 6 * side + c] * y[i]
         for body in range(nb):
-            if drot[body, 0] != 0.0 or drot[body, 1] != 0.0 or drot[body, 2] != 0.0:
-                q = quat_normalize(quat_mul(quat_exp(drot[body]), quat[body]))
+            for c in range(3):
+                pos[body, c] += u[body, c]
+            if u[body, 3] != 0.0 or u[body, 4] != 0.0 or u[body, 5] != 0.0:
+                q = quat_normalize(quat_mul(quat_exp((u[body, 3], u[body, 4], u[body, 5])),
+                                            quat[body]))
                 for c in range(4):
                     quat[body, c] = q[c]

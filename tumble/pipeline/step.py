@@ -6,7 +6,8 @@
     contacts.penalty                spring-damper contact forces (contact="penalty")
     integrate.integrate_velocities  Newton-Euler, gyroscopic term explicit or implicit
     joints.rows.build_joint_rows    constraint rows of every joint (ERP/CFM, limits, motors)
-    contacts.rows                   normal and friction rows of every contact
+    actuators.body_servo_rows       implicit PD rows pulling bodies to targets (hand of god)
+    contacts.rows                   normal, friction (and spin-friction) rows of every contact
     solvers.direct / solvers.pgs    impulses that satisfy the rows; constrained velocities
     joints.rows.joint_reactions     each joint's force and torque on its child
     integrate.integrate_positions   positions and orientations with the new velocities
@@ -23,11 +24,14 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
+from .._jit import noalloc
 from .collide import COLLIDE_OK, COLLIDE_PAIRS_FULL, collide_world
 from .contacts.arrays import ContactArrays, make_contacts_nb
+from .contacts.pairs import ROWS_SPIN, rows_per_contact
 from .contacts.penalty import penalty_forces
 from .contacts.rows import build_contact_rows, store_contact_impulses
-from .actuators import PD_EXPLICIT, PD_IMPLICIT, PD_STABLE, actuator_forces, stable_servo_forces
+from .actuators import (PD_EXPLICIT, PD_IMPLICIT, PD_STABLE, actuator_forces, body_servo_rows,
+                        servoed_bodies, stable_servo_forces)
 from .forces import accumulate_forces
 from .integrate import first_bad_body, integrate_positions, integrate_velocities
 from .joints.rows import build_joint_rows, joint_coordinates, joint_reactions
@@ -47,7 +51,8 @@ StepOptions = namedtuple("StepOptions", [
     "dt", "gyroscopic", "quat_integration", "divergence_limit",
     "erp", "cfm", "solver", "iterations", "tolerance", "warm_start", "projection",
     "projection_tolerance", "contact", "contact_erp", "contact_cfm", "slop",
-    "bounce_threshold", "penalty_k", "penalty_c", "v_slip", "contact_margin", "pd_mode"])
+    "bounce_threshold", "penalty_k", "penalty_c", "v_slip", "contact_margin", "pd_mode",
+    "broadphase"])
 
 # Everything that changes while stepping, for the compiled step.
 StateArrays = namedtuple("StateArrays", [
@@ -67,6 +72,12 @@ StateArrays = namedtuple("StateArrays", [
     "pd_target_qd",    # (nworld, njoint, 3) target rates along the DoF axes
     "joint_applied",   # (nworld, njoint, 3) torque (force) per DoF, held through the call
     "ctrl",            # (nworld, nactuator) MJCF actuator controls
+    "body_servo",      # (nworld, nbody, 4) body servo gains kp N/m, kd N s/m, kp_rot N m/rad,
+                       # kd_rot N m s/rad (all 0: off); the implicit hand of god
+    "body_target_pos",     # (nworld, nbody, 3) its target COM position, m, world
+    "body_target_quat",    # (nworld, nbody, 4) target orientation (as body_quat)
+    "body_target_vel",     # (nworld, nbody, 3) target COM velocity, m/s
+    "body_target_angvel",  # (nworld, nbody, 3) target angular velocity, rad/s
     "joint_q",         # (nworld, njoint, 3) joint coordinates (rad or m)
     "joint_qd",        # (nworld, njoint, 3) their rates
     "joint_qrel",      # (nworld, njoint, 4) child joint frame relative to the parent's
@@ -82,7 +93,7 @@ STATE_OK, STATE_NONFINITE_POS, STATE_NONFINITE_QUAT, STATE_ZERO_QUAT, \
     STATE_NONFINITE_TORQUE = range(8)
 
 
-@njit(cache=True)
+@noalloc
 def check_state(s):
     """Validate a state before stepping; normalise its quaternions.
 
@@ -164,7 +175,10 @@ def step_worlds(m, s, con, pairs, n, o):
     force = np.empty((nb, 3))
     torque = np.empty((nb, 3))
     inv_inertia = np.zeros((nb, 3, 3))
-    ncap = njrow + (3 * cap if o.contact != CONTACT_PENALTY else 0)
+    servoed = servoed_bodies(s.body_servo)
+    nfix = njrow + 6 * servoed.shape[0]      # joint rows, then body servo rows, then contacts
+    nper = rows_per_contact(m)               # rows per contact: 3, or 6 with spin friction
+    ncap = nfix + (nper * cap if o.contact != CONTACT_PENALTY else 0)
     rows = make_rows_nb(ncap)
     imp = np.zeros(ncap)
     gpos = np.zeros((ng, 3))
@@ -195,10 +209,10 @@ def step_worlds(m, s, con, pairs, n, o):
                 for c in range(nprev):
                     prev.geom[c, 0], prev.geom[c, 1] = cw.geom[c, 0], cw.geom[c, 1]
                     prev.feature[c] = cw.feature[c]
-                    for q in range(3):
+                    for q in range(cw.impulse.shape[1]):
                         prev.impulse[c, q] = cw.impulse[c, q]
                 code, ncon = collide_world(m, pos, quat, gpos, gquat, aabb_lo, aabb_hi, pairs,
-                                           cw, nprev, prev, o.contact_margin)
+                                           cw, nprev, prev, o.contact_margin, o.broadphase)
                 if code != COLLIDE_OK:
                     status = STEP_MORE_PAIRS if code == COLLIDE_PAIRS_FULL else STEP_MORE_CONTACTS
                     fail_w, fail_k, needed = w, k, ncon
@@ -214,27 +228,33 @@ def step_worlds(m, s, con, pairs, n, o):
                                     o.gyroscopic, o.tolerance, rows, imp, vel_pred,
                                     angvel_pred, inv_inertia, force, torque)
             if o.contact == CONTACT_PENALTY and ncon > 0:
-                penalty_forces(pos, vel, angvel, cw, ncon, o.penalty_k, o.penalty_c, o.v_slip, h,
-                               force, torque)
+                penalty_forces(m, pos, quat, vel, angvel, cw, ncon, o.penalty_k, o.penalty_c,
+                               o.v_slip, h, nper == ROWS_SPIN, force, torque)
             integrate_velocities(m, quat, vel, angvel, force, torque, h, o.gyroscopic)
-            nrow = njrow + (3 * ncon if o.contact != CONTACT_PENALTY else 0)
+            nrow = nfix + (nper * ncon if o.contact != CONTACT_PENALTY else 0)
             if nrow > 0:
                 if njrow > 0:
                     build_joint_rows(m, pos, quat, vel, angvel, drive, h, o.erp, o.cfm, rows,
                                      o.pd_mode == PD_IMPLICIT)
                     imp[:njrow] = s.row_impulse[w]
-                if nrow > njrow:
-                    build_contact_rows(pos, vel, angvel, cw, ncon, njrow, h, o.contact_erp,
-                                       o.contact_cfm, o.slop, o.bounce_threshold, rows, imp)
+                if nfix > njrow:
+                    body_servo_rows(pos, quat, servoed, s.body_servo[w], s.body_target_pos[w],
+                                    s.body_target_quat[w], s.body_target_vel[w],
+                                    s.body_target_angvel[w], h, rows, njrow)
+                    imp[njrow:nfix] = 0.0
+                if nrow > nfix:
+                    build_contact_rows(m, pos, vel, angvel, cw, ncon, nfix, nper, h,
+                                       o.contact_erp, o.contact_cfm, o.slop,
+                                       o.bounce_threshold, rows, imp)
                 world_inverse_inertia(m, quat, inv_inertia)
-                s.lcp_fallbacks[w] += solve_rows(m, rows, nrow, njrow, ncon, inv_inertia, vel,
+                s.lcp_fallbacks[w] += solve_rows(m, rows, nrow, nfix, ncon, inv_inertia, vel,
                                                  angvel, imp, o)
                 if njrow > 0:
                     s.row_impulse[w] = imp[:njrow]
                     joint_reactions(m, pos, quat, rows, s.row_impulse[w], h, s.joint_force[w],
                                     s.joint_torque[w])
-                if nrow > njrow:
-                    store_contact_impulses(cw, ncon, njrow, imp)
+                if nrow > nfix:
+                    store_contact_impulses(cw, ncon, nfix, nper, imp)
             integrate_positions(m, pos, quat, vel, angvel, h, o.quat_integration)
             if njrow > 0 and o.projection > 0:
                 project_joints(m, pos, quat, vel, angvel, drive, rows, inv_inertia,

@@ -28,11 +28,12 @@ small integer naming the contact feature, stable while the contact persists:
 * cylinder pairs on a face or cap: ``1 + 8 ref + candidate`` (``convex``).
 
 Also: ``geom_aabb``/``geom_aabbs`` (planes are unbounded, +-inf),
-``broadphase_pairs`` (sort and sweep, exact), ``geom_distance`` (signed distance and
+``broadphase_pairs`` (sort and sweep, exact), ``grid_pairs`` (hashed grid, exact), ``geom_distance`` (signed distance and
 closest points), ``raycast_geom``, and the GJK/MPR building blocks.
 """
 from .box_box import box_box_deepest, box_sat, collide_box_box
-from .broadphase import broadphase_pairs, find_pairs, geom_aabbs, sweep_axis
+from .broadphase import (BROADPHASE_GRID, BROADPHASE_SAP, BROADPHASES, broadphase_pairs,
+                         find_pairs, geom_aabbs, grid_pairs, overlapping_pairs, sweep_axis)
 from .convex import (collide_box_cylinder, collide_capsule_cylinder, collide_cylinder_cylinder,
                      convex_contact)
 from .dispatch import (collide_geoms, collide_pair, geom_aabb_any, geom_distance,
@@ -49,7 +50,8 @@ from .shapes import (BOX, CAPSULE, CYLINDER, MAX_CONTACTS_PER_PAIR, NUM_GEOM_TYP
 __all__ = [
     "PLANE", "SPHERE", "CAPSULE", "BOX", "CYLINDER", "NUM_GEOM_TYPES", "MAX_CONTACTS_PER_PAIR",
     "geom_aabb", "geom_aabbs", "support", "support_core", "core_radius",
-    "broadphase_pairs", "find_pairs", "sweep_axis",
+    "broadphase_pairs", "find_pairs", "sweep_axis", "grid_pairs", "overlapping_pairs",
+    "BROADPHASES", "BROADPHASE_SAP", "BROADPHASE_GRID",
     "collide_pair", "geom_distance", "raycast_geom",
     "collide_plane_sphere", "collide_plane_capsule", "collide_plane_box", "collide_plane_cylinder",
     "collide_plane_plane", "collide_sphere_sphere", "collide_sphere_capsule", "collide_sphere_box",

@@ -16,6 +16,7 @@ Feature ids:
 """
 import math
 
+import numpy as np
 from numba import njit
 
 from ._vec import (frame_axes, madd, mid, norm, normalize_or, q4, sub, v3, vcross, vdot,
@@ -371,7 +372,8 @@ def collide_box_box(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, out_po
             return cnt
     if max(sep_f, sep_e) > 0.0:
         # apart (within the margin): one contact at the exact closest points
-        dist, qa, qb, overlap = gjk_distance(BOX, pa, q4(quat_a), ha, BOX, pb, q4(quat_b), hb)
+        dist, qa, qb, overlap = gjk_distance(np.int64(BOX), pa, q4(quat_a), ha, np.int64(BOX), pb,
+                                             q4(quat_b), hb)
         if not overlap:
             if dist >= margin:
                 return 0

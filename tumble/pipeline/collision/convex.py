@@ -18,6 +18,7 @@ contact, with ``ref = 6 * (0 if the face is on A else 1) + face`` (box face
 """
 import math
 
+import numpy as np
 from numba import njit
 
 from ...math.quat import quat_rotate
@@ -183,7 +184,8 @@ def collide_capsule_cylinder(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margi
     """Capsule A, cylinder B (GJK/MPR; end caps against B's cap when resting on it)."""
     pa, qa, sa = v3(pos_a), q4(quat_a), v3(size_a)
     pb, qb, sb = v3(pos_b), q4(quat_b), v3(size_b)
-    depth0, n, xa, xb = convex_contact(int(CAPSULE), pa, qa, sa, int(CYLINDER), pb, qb, sb)
+    depth0, n, xa, xb = convex_contact(np.int64(CAPSULE), pa, qa, sa, np.int64(CYLINDER), pb, qb,
+                                       sb)
     if depth0 <= -margin:
         return 0
     cnt = 0
@@ -192,11 +194,11 @@ def collide_capsule_cylinder(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margi
     if al >= COS_FACE:
         t1 = any_perp(c)
         t2 = vcross(c, t1)
-        cnt, dmax = face_manifold(int(CAPSULE), pa, qa, sa, cc, c, t1, t2, sb[0], sb[0],
+        cnt, dmax = face_manifold(np.int64(CAPSULE), pa, qa, sa, cc, c, t1, t2, sb[0], sb[0],
                                   bool(True), margin, bool(True), _face_feature(1, code),
                                   out_point, out_normal,
                                   out_depth, out_feature, start)
-    tol = 1e-6 * (shape_scale(CAPSULE, sa) + shape_scale(CYLINDER, sb))
+    tol = 1e-6 * (shape_scale(np.int64(CAPSULE), sa) + shape_scale(np.int64(CYLINDER), sb))
     return _add_single(cnt, dmax, depth0, n, xa, xb, tol, out_point, out_normal, out_depth,
                        out_feature, start)
 
@@ -207,7 +209,7 @@ def collide_box_cylinder(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, o
     """Box A, cylinder B (GJK/MPR; a box face or a cap as reference face when resting)."""
     pa, qa, sa = v3(pos_a), q4(quat_a), v3(size_a)
     pb, qb, sb = v3(pos_b), q4(quat_b), v3(size_b)
-    depth0, n, xa, xb = convex_contact(int(BOX), pa, qa, sa, int(CYLINDER), pb, qb, sb)
+    depth0, n, xa, xb = convex_contact(np.int64(BOX), pa, qa, sa, np.int64(CYLINDER), pb, qb, sb)
     if depth0 <= -margin:
         return 0
     A = frame_axes(qa)
@@ -234,7 +236,7 @@ def collide_box_cylinder(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, o
             break
         if (attempt == 0) == use_box:
             if box_ok:
-                cnt, dmax = face_manifold(int(CYLINDER), pb, qb, sb, madd(pa, f, sa[k]), f,
+                cnt, dmax = face_manifold(np.int64(CYLINDER), pb, qb, sb, madd(pa, f, sa[k]), f,
                                           A[(k + 1) % 3], A[(k + 2) % 3], e1, e2, bool(False),
                                           margin, bool(False),
                                           _face_feature(0, 2 * k + (1 if s > 0.0 else 0)),
@@ -242,11 +244,11 @@ def collide_box_cylinder(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, o
         elif cap_ok:
             t1 = any_perp(c)
             t2 = vcross(c, t1)
-            cnt, dmax = face_manifold(int(BOX), pa, qa, sa, cc, c, t1, t2, r, r, bool(True),
+            cnt, dmax = face_manifold(np.int64(BOX), pa, qa, sa, cc, c, t1, t2, r, r, bool(True),
                                       margin, bool(True),
                                       _face_feature(1, code), out_point, out_normal, out_depth,
                                       out_feature, start)
-    tol = 1e-6 * (shape_scale(BOX, sa) + shape_scale(CYLINDER, sb))
+    tol = 1e-6 * (shape_scale(np.int64(BOX), sa) + shape_scale(np.int64(CYLINDER), sb))
     return _add_single(cnt, dmax, depth0, n, xa, xb, tol, out_point, out_normal, out_depth,
                        out_feature, start)
 
@@ -257,7 +259,8 @@ def collide_cylinder_cylinder(pos_a, quat_a, size_a, pos_b, quat_b, size_b, marg
     """Cylinder A, cylinder B (GJK/MPR; the larger facing cap as reference when resting)."""
     pa, qa, sa = v3(pos_a), q4(quat_a), v3(size_a)
     pb, qb, sb = v3(pos_b), q4(quat_b), v3(size_b)
-    depth0, n, xa, xb = convex_contact(int(CYLINDER), pa, qa, sa, int(CYLINDER), pb, qb, sb)
+    depth0, n, xa, xb = convex_contact(np.int64(CYLINDER), pa, qa, sa, np.int64(CYLINDER), pb,
+                                       qb, sb)
     if depth0 <= -margin:
         return 0
     ala, cca, ca, codea = _cap(pa, qa, sa[1], n, 1.0)
@@ -274,16 +277,17 @@ def collide_cylinder_cylinder(pos_a, quat_a, size_a, pos_b, quat_b, size_b, marg
             if oka:
                 t1 = any_perp(ca)
                 t2 = vcross(ca, t1)
-                cnt, dmax = face_manifold(int(CYLINDER), pb, qb, sb, cca, ca, t1, t2, sa[0], sa[0],
+                cnt, dmax = face_manifold(np.int64(CYLINDER), pb, qb, sb, cca, ca, t1, t2, sa[0],
+                                          sa[0],
                                           bool(True), margin, bool(False), _face_feature(0, codea),
                                           out_point, out_normal, out_depth, out_feature, start)
         elif okb:
             t1 = any_perp(cb)
             t2 = vcross(cb, t1)
-            cnt, dmax = face_manifold(int(CYLINDER), pa, qa, sa, ccb, cb, t1, t2, sb[0], sb[0],
+            cnt, dmax = face_manifold(np.int64(CYLINDER), pa, qa, sa, ccb, cb, t1, t2, sb[0], sb[0],
                                       bool(True),
                                       margin, bool(True), _face_feature(1, codeb), out_point,
                                       out_normal, out_depth, out_feature, start)
-    tol = 1e-6 * (shape_scale(CYLINDER, sa) + shape_scale(CYLINDER, sb))
+    tol = 1e-6 * (shape_scale(np.int64(CYLINDER), sa) + shape_scale(np.int64(CYLINDER), sb))
     return _add_single(cnt, dmax, depth0, n, xa, xb, tol, out_point, out_normal, out_depth,
                        out_feature, start)

@@ -650,7 +650,7 @@ def collide_plane_convex(pos_a, quat_a, pos_b, quat_b, verts, margin, out_point,
     nl = quat_rotate_inv(qb, n)
     off = vdot(n, sub(pb, pa))
     nv = verts.shape[0]
-    sc = shape_scale(int(CONVEX), _Z3, verts)
+    sc = shape_scale(np.int64(CONVEX), _Z3, verts)
     cnt = 0
     for k in range(nv):
         if off + vdot(nl, (verts[k, 0], verts[k, 1], verts[k, 2])) < margin:
@@ -998,14 +998,14 @@ def raycast_convex(verts, pos, quat, origin, direction, max_dist):
     p = v3(pos)
     o = quat_rotate_inv(q, sub(v3(origin), p))
     d = quat_rotate_inv(q, v3(direction))
-    sc = shape_scale(int(CONVEX), _Z3, verts)
+    sc = shape_scale(np.int64(CONVEX), _Z3, verts)
     eps = 1e-11 * sc
     t = 0.0
     x = o
     nh = (0.0, 0.0, 0.0)
     for it in range(200):
-        dist, ca, cb, overlap = gjk_distance(int(SPHERE), x, _IDENT, _Z3, int(CONVEX), _Z3, _IDENT,
-                                             _Z3, verts, verts)
+        dist, ca, cb, overlap = gjk_distance(np.int64(SPHERE), x, _IDENT, _Z3, np.int64(CONVEX),
+                                             _Z3, _IDENT, _Z3, verts, verts)
         if overlap or dist <= eps:
             if it == 0:
                 return 0.0, (-float(direction[0]), -float(direction[1]), -float(direction[2]))

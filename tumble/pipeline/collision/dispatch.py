@@ -14,6 +14,7 @@ import math
 import numpy as np
 from numba import njit
 
+from ..._jit import noalloc
 from ...math.quat import quat_rotate, quat_rotate_inv
 from ._vec import clamp, local_to_world, madd, norm, normalize_or, q4, sub, v3, vdot
 from .box_box import box_box_deepest, collide_box_box
@@ -189,7 +190,7 @@ def geom_distance(type_a, pos_a, quat_a, size_a, type_b, pos_b, quat_b, size_b):
 
 # ----------------------------------------------------- any geom of a model (all types)
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def geom_verts(m, g):
     """Hull vertices of convex geom ``g`` (a view of ``m.mesh_vert``); an empty view for
     other types."""
@@ -200,7 +201,7 @@ def geom_verts(m, g):
     return m.mesh_vert[0:0]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def geom_hfield(m, g):
     """``(heights (nrow * ncol,) view, nrow, ncol)`` of heightfield geom ``g``."""
     k = m.geom_dataid[g]
@@ -259,7 +260,7 @@ def collide_geoms(m, ga, pos_a, quat_a, gb, pos_b, quat_b, margin, out_point, ou
                                   out_point, out_normal, out_depth, out_feature, start)
 
 
-@njit(cache=True)
+@noalloc
 def geom_aabb_any(m, g, pos, quat, margin):
     """World AABB ``(lo, hi)`` of geom ``g`` of any type, grown by ``margin`` (planes
     unbounded; heightfields scan their heights)."""

@@ -332,7 +332,7 @@ def _reaches_piece(tb, pl, ql, sb, vb, p0, p1, p2, n, margin, zbot, rb, prism, t
         prism[r + 3, 0] = p[0]
         prism[r + 3, 1] = p[1]
         prism[r + 3, 2] = min(zbot, p[2] - 1.0)
-    dist, ca, cb, overlap = gjk_distance(int(CONVEX), _Z3, _IDENT, _Z3, tb, pl, ql, sb, prism,
+    dist, ca, cb, overlap = gjk_distance(np.int64(CONVEX), _Z3, _IDENT, _Z3, tb, pl, ql, sb, prism,
                                          vb)
     return overlap or dist <= rb + tol
 
@@ -671,8 +671,8 @@ def hfield_distance(H, nr, nc, hsize, pos_h, quat_h, tb, pos_b, quat_b, size_b, 
                             prism[r + 3, 0] = p[0]
                             prism[r + 3, 1] = p[1]
                             prism[r + 3, 2] = zb
-                        dist, ca, cb, overlap = gjk_distance(int(CONVEX), _Z3, _IDENT, _Z3, tb, pl,
-                                                             ql, sb, prism, vb)
+                        dist, ca, cb, overlap = gjk_distance(np.int64(CONVEX), _Z3, _IDENT, _Z3,
+                                                             tb, pl, ql, sb, prism, vb)
                         if overlap:
                             dist = 0.0
                         dist -= rb

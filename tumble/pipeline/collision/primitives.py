@@ -19,6 +19,7 @@ arrays, returning how many it wrote. Conventions:
 """
 import math
 
+import numpy as np
 from numba import njit
 
 from ...math.quat import quat_rotate, quat_rotate_inv
@@ -151,32 +152,32 @@ def _plane_any(gtype, pos_a, quat_a, pos_b, quat_b, size_b, margin, out_point, o
 def collide_plane_sphere(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, out_point,
                          out_normal, out_depth, out_feature, start):
     """Plane A, sphere B: one contact, feature 0."""
-    return _plane_any(SPHERE, pos_a, quat_a, pos_b, quat_b, size_b, margin, out_point, out_normal,
-                      out_depth, out_feature, start)
+    return _plane_any(np.int64(SPHERE), pos_a, quat_a, pos_b, quat_b, size_b, margin, out_point,
+                      out_normal, out_depth, out_feature, start)
 
 
 @njit(cache=True)
 def collide_plane_capsule(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, out_point,
                           out_normal, out_depth, out_feature, start):
     """Plane A, capsule B: the two end caps, features 0 (``-half_length``) and 1."""
-    return _plane_any(CAPSULE, pos_a, quat_a, pos_b, quat_b, size_b, margin, out_point, out_normal,
-                      out_depth, out_feature, start)
+    return _plane_any(np.int64(CAPSULE), pos_a, quat_a, pos_b, quat_b, size_b, margin, out_point,
+                      out_normal, out_depth, out_feature, start)
 
 
 @njit(cache=True)
 def collide_plane_box(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, out_point,
                       out_normal, out_depth, out_feature, start):
     """Plane A, box B: the (up to) 4 deepest vertices, feature = vertex index."""
-    return _plane_any(BOX, pos_a, quat_a, pos_b, quat_b, size_b, margin, out_point, out_normal,
-                      out_depth, out_feature, start)
+    return _plane_any(np.int64(BOX), pos_a, quat_a, pos_b, quat_b, size_b, margin, out_point,
+                      out_normal, out_depth, out_feature, start)
 
 
 @njit(cache=True)
 def collide_plane_cylinder(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, out_point,
                            out_normal, out_depth, out_feature, start):
     """Plane A, cylinder B: up to 4 rim points (see ``manifold`` for feature ids)."""
-    return _plane_any(CYLINDER, pos_a, quat_a, pos_b, quat_b, size_b, margin, out_point, out_normal,
-                      out_depth, out_feature, start)
+    return _plane_any(np.int64(CYLINDER), pos_a, quat_a, pos_b, quat_b, size_b, margin, out_point,
+                      out_normal, out_depth, out_feature, start)
 
 
 @njit(cache=True)

@@ -13,8 +13,13 @@ ContactArrays = namedtuple("ContactArrays", [
     "feature",      # (..., C) int64 feature id, stable while the contact persists
     "friction",     # (..., C) combined Coulomb coefficient (the larger of the two)
     "restitution",  # (..., C) combined restitution (the larger of the two)
-    "impulse",      # (..., C, 3) normal, tangent-1, tangent-2 impulse of the last step, N s
+    "impulse",      # (..., C, 6) impulses of the last step: normal, tangent-1, tangent-2
+                    # (N s), then torsional (about the normal), rolling about tangent 1 and
+                    # about tangent 2 (N m s; 0 unless the pair has those frictions)
 ])
+
+# Impulse components kept per contact (see ``impulse`` above).
+NIMPULSE = 6
 
 
 def make_contacts(nworld, capacity):
@@ -24,7 +29,7 @@ def make_contacts(nworld, capacity):
         np.zeros((nworld, capacity, 3)), np.zeros((nworld, capacity, 3)),
         np.zeros((nworld, capacity)), np.zeros((nworld, capacity), np.int64),
         np.zeros((nworld, capacity)), np.zeros((nworld, capacity)),
-        np.zeros((nworld, capacity, 3)))
+        np.zeros((nworld, capacity, NIMPULSE)))
 
 
 @njit(cache=True)
@@ -34,4 +39,4 @@ def make_contacts_nb(capacity):
         np.zeros((capacity, 2), np.int32), np.zeros((capacity, 2), np.int32),
         np.zeros((capacity, 3)), np.zeros((capacity, 3)), np.zeros(capacity),
         np.zeros(capacity, np.int64), np.zeros(capacity), np.zeros(capacity),
-        np.zeros((capacity, 3)))
+        np.zeros((capacity, NIMPULSE)))

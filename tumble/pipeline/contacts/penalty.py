@@ -10,13 +10,29 @@ on four contacts (a box face) feels ``K = 4k`` and ``C = 4c``. Semi-implicit Eul
 needs ``w h < 2`` with ``w = sqrt(K/m)`` and ``C h / m < 2``; we take ``w h = 0.5``
 and critical damping ``C = 2 sqrt(K m)`` (so ``C h / m = 1``): ``k = m / (16 h^2)``,
 ``c = m / (4 h)``. A box resting on four contacts sinks ``m g / K = 4 g h^2``: 0.7 mm at
-240 Hz; a sphere on one contact four times that.
+240 Hz; a sphere on one contact four times that. A pair of geoms with their own
+stiffness or damping (``ModelBuilder.add_geom``, combined by ``pairs.pair_softness``)
+uses those instead; the same rule bounds what is stable: ``k <= m / (16 h^2)`` for a
+body of mass m on four such contacts (``sqrt(k / m) h <= 1/4``).
+
+Spin friction (torsional about the normal, rolling about the tangents; ``mu_t``, ``mu_r``
+lengths in m) is the same regularised law on the relative angular velocity:
+``tau = -mu f_n w / max(|w|, w_reg)``. The regularisation speed ``w_reg = 4 h mu f_n /
+I_eff`` (``1 / I_eff``: the two bodies' inverse inertias about the axis) makes the
+torque below saturation a damper that removes at most a quarter of the spin per step,
+so up to four contacts of one body stay stable at any step; above ``w_reg`` the torque
+is the full ``mu f_n``.
 """
 import math
 
 from numba import njit
 
+from ...math.quat import quat_rotate_inv
+from .pairs import pair_softness, pair_spin_friction
 from .rows import lever, relative_velocity, tangents
+
+# Floor of the spin regularisation speed (rad/s), for bodies that cannot turn.
+_W_FLOOR = 1e-9
 
 
 def default_penalty(lightest_mass, h):
@@ -24,22 +40,56 @@ def default_penalty(lightest_mass, h):
     return lightest_mass / (16.0 * h * h), lightest_mass / (4.0 * h)
 
 
+@njit(cache=True, inline="always")
+def _inv_inertia_about(m, quat, b, e):
+    """``e . I^-1 e`` of body ``b`` about the world unit direction ``e`` (0 for the world
+    and bodies that are not dynamic)."""
+    if b < 0:
+        return 0.0
+    eb = quat_rotate_inv(quat[b], e)
+    inv = m.body_inv_inertia[b]
+    return eb[0] * eb[0] * inv[0] + eb[1] * eb[1] * inv[1] + eb[2] * eb[2] * inv[2]
+
+
 @njit(cache=True)
-def penalty_forces(pos, vel, angvel, con, count, k, c, v_slip, h, force, torque):
+def _spin_torque(m, quat, a, b, e, w, mu, fn, h):
+    """Regularised spin-friction torque (N m, on b, along the unit direction ``e``) of a
+    relative spin rate ``w`` (rad/s) about ``e``."""
+    inv = _inv_inertia_about(m, quat, a, e) + _inv_inertia_about(m, quat, b, e)
+    w_reg = max(4.0 * h * mu * fn * inv, _W_FLOOR)
+    return -mu * fn * w / max(abs(w), w_reg)
+
+
+@njit(cache=True)
+def penalty_forces(m, pos, quat, vel, angvel, con, count, k, c, v_slip, h, spin_model, force,
+                   torque):
     """Add the contact forces (N) and their torques about each COM to ``force``/``torque``;
-    each contact's ``impulse`` becomes its force times ``h`` (normal, tangent 1, tangent 2)."""
+    each contact's ``impulse`` becomes its force times ``h`` (normal, tangent 1, tangent 2)
+    and its spin-friction torque times ``h`` (about the normal, tangent 1, tangent 2).
+
+    k, c : the world's stiffness (N/m) and damping (N s/m), for pairs without their own.
+    spin_model : whether any geom has spin friction (``pairs.rows_per_contact``); if not,
+    the spin impulses stay the zeros the collision stage wrote.
+    """
     for i in range(count):
         d = con.depth[i]
         if d <= 0.0:
-            con.impulse[i, 0] = con.impulse[i, 1] = con.impulse[i, 2] = 0.0
+            for q in range(con.impulse.shape[1]):
+                con.impulse[i, q] = 0.0
             continue
         a, b = con.body[i, 0], con.body[i, 1]
+        ga, gb = con.geom[i, 0], con.geom[i, 1]
+        kp, cp = pair_softness(m, ga, gb)
+        if kp <= 0.0:
+            kp = k
+        if cp < 0.0:
+            cp = c
         p = con.point[i]
         n = (con.normal[i, 0], con.normal[i, 1], con.normal[i, 2])
         r_a, r_b = lever(pos, a, p), lever(pos, b, p)
         rel = relative_velocity(vel, angvel, a, b, r_a, r_b)
         vn = rel[0] * n[0] + rel[1] * n[1] + rel[2] * n[2]
-        fn = max(k * d - c * vn, 0.0)
+        fn = max(kp * d - cp * vn, 0.0)
         vt = (rel[0] - vn * n[0], rel[1] - vn * n[1], rel[2] - vn * n[2])
         speed = math.sqrt(vt[0] * vt[0] + vt[1] * vt[1] + vt[2] * vt[2])
         ft = con.friction[i] * fn / max(speed, v_slip)
@@ -59,3 +109,29 @@ def penalty_forces(pos, vel, angvel, con, count, k, c, v_slip, h, force, torque)
             torque[body, 0] += s * (r[1] * f[2] - r[2] * f[1])
             torque[body, 1] += s * (r[2] * f[0] - r[0] * f[2])
             torque[body, 2] += s * (r[0] * f[1] - r[1] * f[0])
+        if not spin_model:
+            continue
+        # spin friction: torque on b about the contact, -torque on a
+        spin = (0.0, 0.0, 0.0)
+        mu_t, mu_r = pair_spin_friction(m, ga, gb)
+        if (mu_t > 0.0 or mu_r > 0.0) and fn > 0.0:
+            wb = (angvel[b, 0], angvel[b, 1], angvel[b, 2]) if b >= 0 else (0.0, 0.0, 0.0)
+            wa = (angvel[a, 0], angvel[a, 1], angvel[a, 2]) if a >= 0 else (0.0, 0.0, 0.0)
+            wr = (wb[0] - wa[0], wb[1] - wa[1], wb[2] - wa[2])
+            wn = wr[0] * n[0] + wr[1] * n[1] + wr[2] * n[2]
+            tn = _spin_torque(m, quat, a, b, n, wn, mu_t, fn, h) if mu_t > 0.0 else 0.0
+            wt = (wr[0] - wn * n[0], wr[1] - wn * n[1], wr[2] - wn * n[2])
+            roll = math.sqrt(wt[0] * wt[0] + wt[1] * wt[1] + wt[2] * wt[2])
+            tr = 0.0
+            if mu_r > 0.0 and roll > 0.0:
+                e = (wt[0] / roll, wt[1] / roll, wt[2] / roll)
+                tr = _spin_torque(m, quat, a, b, e, roll, mu_r, fn, h) / roll
+            spin = (tn * n[0] + tr * wt[0], tn * n[1] + tr * wt[1], tn * n[2] + tr * wt[2])
+        con.impulse[i, 3] = h * (spin[0] * n[0] + spin[1] * n[1] + spin[2] * n[2])
+        con.impulse[i, 4] = h * (spin[0] * t1[0] + spin[1] * t1[1] + spin[2] * t1[2])
+        con.impulse[i, 5] = h * (spin[0] * t2[0] + spin[1] * t2[1] + spin[2] * t2[2])
+        for kk in range(3):
+            if b >= 0:
+                torque[b, kk] += spin[kk]
+            if a >= 0:
+                torque[a, kk] -= spin[kk]

@@ -12,6 +12,7 @@ the softness in velocity per impulse (ODE's CFM divided by the step).
 """
 from numba import njit
 
+from ..._jit import noalloc
 from ...math.quat import quat_mul, quat_rotate
 
 INF = 1e300
@@ -25,7 +26,7 @@ def body_pose(pos, quat, b):
     return (pos[b, 0], pos[b, 1], pos[b, 2]), (quat[b, 0], quat[b, 1], quat[b, 2], quat[b, 3])
 
 
-@njit(cache=True)
+@noalloc
 def joint_frames(m, pos, quat, j):
     """World-frame anchor points and joint-frame orientations of joint ``j``.
 
@@ -61,6 +62,7 @@ def set_row(rows, r, a, b, lin_a, ang_a, lin_b, ang_b, rhs, cfm, lo, hi):
     rows.hi[r] = hi
     rows.parent[r] = -1
     rows.mu[r] = 0.0
+    rows.group[r] = -1
 
 
 @njit(cache=True, inline="always")
@@ -87,7 +89,7 @@ def angular_row(rows, r, a, b, e, rhs, cfm, lo, hi):
     set_row(rows, r, a, b, z, (-e[0], -e[1], -e[2]), z, e, rhs, cfm, lo, hi)
 
 
-@njit(cache=True)
+@noalloc
 def point_rows(rows, r, a, b, anchor_a, anchor_b, r_a, r_b, erp_h, cfm):
     """Three rows keeping the two anchor points together (ball, hinge, universal, fixed)."""
     for k in range(3):

@@ -1,11 +1,10 @@
 """Fixed joint: anchors coincide and the relative orientation is locked (0 DoF)."""
-from numba import njit
-
+from ..._jit import noalloc
 from ...math.quat import quat_conj, quat_log, quat_mul
 from .common import INF, angular_row, point_rows
 
 
-@njit(cache=True)
+@noalloc
 def angular_lock_rows(rows, r, a, b, frame_a, frame_b, erp_h, cfm):
     """Three rows holding the child joint frame at the parent's orientation."""
     err = quat_log(quat_mul(frame_b, quat_conj(frame_a)))   # world rotation vector, a -> b
@@ -14,14 +13,14 @@ def angular_lock_rows(rows, r, a, b, frame_a, frame_b, erp_h, cfm):
         angular_row(rows, r + k, a, b, e, -erp_h * err[k], cfm, -INF, INF)
 
 
-@njit(cache=True)
+@noalloc
 def core_rows(m, rows, r, j, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm):
     a, b = m.joint_parent[j], m.joint_child[j]
     point_rows(rows, r, a, b, anchor_a, anchor_b, r_a, r_b, erp_h, cfm)
     angular_lock_rows(rows, r + 3, a, b, frame_a, frame_b, erp_h, cfm)
 
 
-@njit(cache=True)
+@noalloc
 def dofs(frame_a, frame_b, anchor_a, anchor_b):
     z = (0.0, 0.0, 0.0)
     return (z, z, z), z

@@ -1,13 +1,13 @@
 """Hinge: anchors coincide and the child turns only about the joint axis (x of the joint frame)."""
 import math
 
-from numba import njit
 
+from ..._jit import noalloc
 from ...math.quat import quat_conj, quat_mul, quat_rotate
 from .common import INF, angular_row, point_rows
 
 
-@njit(cache=True)
+@noalloc
 def core_rows(m, rows, r, j, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm):
     a, b = m.joint_parent[j], m.joint_child[j]
     point_rows(rows, r, a, b, anchor_a, anchor_b, r_a, r_b, erp_h, cfm)
@@ -23,7 +23,7 @@ def core_rows(m, rows, r, j, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp
         angular_row(rows, r + 3 + k, a, b, u, -erp_h * c, cfm, -INF, INF)
 
 
-@njit(cache=True)
+@noalloc
 def dofs(frame_a, frame_b, anchor_a, anchor_b):
     """Axis (world) and hinge angle (rad, in (-pi, pi]) of the child about it."""
     rel = quat_mul(quat_conj(frame_a), frame_b)

@@ -2,7 +2,10 @@
 
 Joint j owns rows ``joint_row_start[j] ...``: first its core rows (type module), then
 for each degree of freedom a limit, a motor, a damping and a friction row, written
-as inactive rows (``lo == hi == 0``) when not in use.
+as inactive rows (``lo == hi == 0``) when not in use. A ball joint with a swing cone or
+twist range (``joint_cone``, ``joint_twist``) uses its three limit slots for those
+instead of the box limit: DoF 0's for the twist row, DoF 1's for the swing-cone row,
+DoF 2's stays inactive (see ``ball.py``).
 
 ERP/CFM: a row with error C asks for the velocity ``-ERP C / h`` and is softened by
 ``CFM`` (ODE's units: m/N or rad/(N m) per second). A spring k and damper c acting on
@@ -86,10 +89,17 @@ def build_joint_rows(m, pos, quat, vel, angvel, drive, h, erp, cfm, rows, servo_
         servo = servo_rows and servo_active(drive, j)
         if servo:
             err = pd_error(t, q, frame_a, frame_b, drive.target_quat[j], drive.target_q[j])
+        swing_twist = t == BALL and (m.joint_cone[j, 0] > 0.0
+                                     or m.joint_twist[j, 0] <= m.joint_twist[j, 1])
         for d in range(n):
             e_ax = axes[d]
-            qd = _dof_velocity(e_ax, linear, a, b, vel, angvel, r_a, r_b)
-            _limit_row(m, rows, r, j, a, b, e_ax, linear, q[d], qd, h, erp_h, cfm_v, r_a, r_b)
+            if swing_twist:
+                _swing_twist_row(m, rows, r, j, d, a, b, frame_a, frame_b, vel, angvel, h,
+                                 erp_h, cfm_v, r_a, r_b)
+            else:
+                qd = _dof_velocity(e_ax, linear, a, b, vel, angvel, r_a, r_b)
+                _limit_row(m, rows, r, j, a, b, e_ax, linear, q[d], qd, h, erp_h, cfm_v, r_a,
+                           r_b)
             if servo:
                 rhs, cfm_s = servo_row_terms(drive.kp[j], drive.kd[j], h, err[d],
                                              drive.target_qd[j, d])
@@ -157,7 +167,14 @@ def _limit_row(m, rows, r, j, a, b, e, linear, q, qd, h, erp_h, cfm, r_a, r_b):
     if lo > hi:                    # no limit
         clear_row(rows, r, a, b)
         return
-    c_lo, c_hi = q - lo, hi - q
+    _bound_row(rows, r, a, b, e, linear, q - lo, hi - q, qd, h, erp_h, cfm, r_a, r_b)
+
+
+@njit(cache=True)
+def _bound_row(rows, r, a, b, e, linear, c_lo, c_hi, qd, h, erp_h, cfm, r_a, r_b):
+    """The one-sided row of a coordinate with margins ``c_lo`` above its lower bound and
+    ``c_hi`` below its upper one, moving at ``qd = e . (relative velocity)``: written when
+    the nearer bound is crossed or would be this step, else the row is cleared."""
     if c_lo <= c_hi and (c_lo < 0.0 or c_lo + h * qd < 0.0):
         # moving the coordinate up is allowed; down only until the limit
         rhs = -erp_h * c_lo if c_lo < 0.0 else -c_lo / h
@@ -170,6 +187,27 @@ def _limit_row(m, rows, r, j, a, b, e, linear, q, qd, h, erp_h, cfm, r_a, r_b):
         rows.lo[r] = 0.0
     else:
         clear_row(rows, r, a, b)
+
+
+@njit(cache=True)
+def _swing_twist_row(m, rows, r, j, d, a, b, frame_a, frame_b, vel, angvel, h, erp_h, cfm,
+                     r_a, r_b):
+    """Limit slot ``d`` of a ball joint with a cone or twist range: d = 0 the twist row,
+    d = 1 the swing-cone row (one row: it pushes along the cone's normal), d = 2 unused."""
+    if d == 0 and m.joint_twist[j, 0] <= m.joint_twist[j, 1]:
+        tau, e, ok = ball.twist_terms(frame_a, frame_b)
+        if ok:
+            qd = _dof_velocity(e, False, a, b, vel, angvel, r_a, r_b)
+            _bound_row(rows, r, a, b, e, False, tau - m.joint_twist[j, 0],
+                       m.joint_twist[j, 1] - tau, qd, h, erp_h, cfm, r_a, r_b)
+            return
+    elif d == 1 and m.joint_cone[j, 0] > 0.0:
+        margin, e, ok = ball.swing_terms(frame_a, frame_b, m.joint_cone[j, 0], m.joint_cone[j, 1])
+        if ok:
+            qd = _dof_velocity(e, False, a, b, vel, angvel, r_a, r_b)
+            _bound_row(rows, r, a, b, e, False, INF, margin, qd, h, erp_h, cfm, r_a, r_b)
+            return
+    clear_row(rows, r, a, b)
 
 
 @njit(cache=True)

@@ -1,12 +1,11 @@
 """Slider (prismatic): orientation locked; the child's anchor moves only along the axis."""
-from numba import njit
-
+from ..._jit import noalloc
 from ...math.quat import quat_rotate
 from .common import INF, set_row
 from .fixed import angular_lock_rows
 
 
-@njit(cache=True)
+@noalloc
 def core_rows(m, rows, r, j, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm):
     a, b = m.joint_parent[j], m.joint_child[j]
     angular_lock_rows(rows, r, a, b, frame_a, frame_b, erp_h, cfm)
@@ -23,7 +22,7 @@ def core_rows(m, rows, r, j, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp
                 -INF, INF)
 
 
-@njit(cache=True)
+@noalloc
 def dofs(frame_a, frame_b, anchor_a, anchor_b):
     """Axis (world) and displacement (m) of the child's anchor along it."""
     axis = quat_rotate(frame_a, (1.0, 0.0, 0.0))

@@ -3,13 +3,13 @@
 child), which stay perpendicular."""
 import math
 
-from numba import njit
 
+from ..._jit import noalloc
 from ...math.quat import quat_conj, quat_mul, quat_rotate
 from .common import INF, angular_row, point_rows
 
 
-@njit(cache=True)
+@noalloc
 def core_rows(m, rows, r, j, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm):
     a, b = m.joint_parent[j], m.joint_child[j]
     point_rows(rows, r, a, b, anchor_a, anchor_b, r_a, r_b, erp_h, cfm)
@@ -23,7 +23,7 @@ def core_rows(m, rows, r, j, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp
     angular_row(rows, r + 3, a, b, u, -erp_h * c, cfm, -INF, INF)
 
 
-@njit(cache=True)
+@noalloc
 def dofs(frame_a, frame_b, anchor_a, anchor_b):
     """Axes 1 (parent) and 2 (child), world; angles about them (rad): the rotation of the
     child joint frame relative to the parent's as x-then-y Cardan angles."""

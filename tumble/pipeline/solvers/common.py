@@ -4,11 +4,15 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
+from ..._jit import noalloc
 from ...math.spatial import inertia_world_inv
 from ...model.model import DYNAMIC
 
-# parent >= 0 marks a friction row whose bounds are -+ mu * impulse[parent].
-Rows = namedtuple("Rows", ["body_a", "body_b", "J", "rhs", "cfm", "lo", "hi", "parent", "mu"])
+# parent >= 0 marks a friction row whose bounds are -+ mu * impulse[parent]; friction rows
+# with the same group (>= 0) share one friction pyramid in the exact (Lemke) solver, e.g.
+# a contact's two tangent rows, or its two rolling rows.
+Rows = namedtuple("Rows", ["body_a", "body_b", "J", "rhs", "cfm", "lo", "hi", "parent", "mu",
+                           "group"])
 
 
 @njit(cache=True)
@@ -16,10 +20,10 @@ def make_rows_nb(nrow):
     """Empty row arrays for ``nrow`` rows (see joints/common.py for their meaning)."""
     return Rows(np.full(nrow, -1, np.int32), np.full(nrow, -1, np.int32), np.zeros((nrow, 12)),
                 np.zeros(nrow), np.zeros(nrow), np.zeros(nrow), np.zeros(nrow),
-                np.full(nrow, -1, np.int32), np.zeros(nrow))
+                np.full(nrow, -1, np.int32), np.zeros(nrow), np.full(nrow, -1, np.int32))
 
 
-@njit(cache=True)
+@noalloc
 def world_inverse_inertia(m, quat, out):
     """(nbody, 3, 3) inverse world inertia of each dynamic body; zero for the others."""
     for b in range(quat.shape[0]):
@@ -37,7 +41,7 @@ def row_active(rows, r):
     return rows.parent[r] >= 0 or not (rows.lo[r] == 0.0 and rows.hi[r] == 0.0)
 
 
-@njit(cache=True)
+@noalloc
 def minv_jt(rows, r, inv_mass, inv_inertia, out):
     """``M^-1 J_r^T`` (12,) for row r: the velocity change per unit impulse."""
     for side in range(2):
@@ -82,3 +86,28 @@ def apply_impulse(rows, r, dv, p, vel, angvel):
         for k in range(3):
             vel[b, k] += dv[o + k] * p
             angvel[b, k] += dv[o + 3 + k] * p
+
+
+@noalloc
+def active_rows(rows, nrow, idx, where, impulse):
+    """Indices of the rows that take part (``row_active``) into ``idx`` (nrow,); their
+    position among them into ``where`` (nrow,), -1 and a zero ``impulse`` for the others.
+    Returns their number. (Inactive rows are the unreached limits and unused motor,
+    damper and friction slots, written as ``lo == hi == 0``: no solver sees them.)"""
+    n = 0
+    for r in range(nrow):
+        if row_active(rows, r):
+            idx[n] = r
+            where[r] = n
+            n += 1
+        else:
+            where[r] = -1
+            impulse[r] = 0.0
+    return n
+
+
+@noalloc
+def apply_impulses(rows, idx, n, dv, p, vel, angvel):
+    """``apply_impulse`` for the rows ``idx[:n]`` with impulses ``p[:n]``, responses ``dv``."""
+    for i in range(n):
+        apply_impulse(rows, idx[i], dv[i], p[i], vel, angvel)

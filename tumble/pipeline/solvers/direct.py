@@ -1,28 +1,31 @@
-"""Direct solver: factorise ``A = J M^-1 J^T + CFM`` and solve exactly.
+"""Direct solver: solve ``(J M^-1 J^T + CFM) p = rhs - J v`` exactly.
 
 Rows with finite bounds (limits, motors, friction) make a box-bounded LCP, solved by
 an active-set method: solve with the free rows, clamp the worst row outside its bounds
-or release the worst clamped row whose velocity pushes back, repeat. Each solve is a
-dense Cholesky factorisation of the free rows, O(n^3) in the active row count, which is
-what pays for the systems of a character (tens of rows). If the active set does not
-settle within its iteration cap, or a factorisation fails (redundant rows with zero
-CFM), the result is polished by projected Gauss-Seidel and the fallback is reported.
+or release the worst clamped row whose velocity pushes back, repeat.
+
+Each solve of the free rows is, when the rows form a tree over the bodies (an
+articulated character, a chain hanging from the world), the linear-time factorisation
+of ``tree.py`` (Baraff 1996), redone for every active set in O(rows); otherwise (loops
+of joints) a dense Cholesky factorisation, O(n^3) in the active row count. If the active
+set does not settle within its iteration cap, or a factorisation fails (redundant rows
+with zero CFM), the result is polished by projected Gauss-Seidel and the fallback is
+reported.
 """
 import numpy as np
 from numba import njit
 
-from .common import apply_impulse, minv_jt, row_active, row_velocity
+from ..._jit import noalloc
+from .common import (active_rows, apply_impulse, apply_impulses, minv_jt, row_active,
+                     row_velocity)
 from .pgs import solve_pgs
+from .tree import tree_factor, tree_plan, tree_solve
 
 
-@njit(cache=True)
-def cholesky_solve(a, b, n, work):
-    """Solve ``a[:n, :n] x = b[:n]`` for symmetric positive definite ``a``.
-
-    ``work`` (n, n) receives the factor. Returns (x, ok); ok is False when ``a`` is not
-    positive definite (to working precision).
-    """
-    x = np.zeros(n)
+@noalloc
+def cholesky_factor(a, n, work):
+    """Lower Cholesky factor of the symmetric positive definite ``a[:n, :n]`` into ``work``.
+    Returns False when ``a`` is not positive definite (to working precision)."""
     for i in range(n):
         for k in range(i + 1):
             s = a[i, k]
@@ -30,10 +33,16 @@ def cholesky_solve(a, b, n, work):
                 s -= work[i, t] * work[k, t]
             if i == k:
                 if s <= 1e-300:
-                    return x, False
+                    return False
                 work[i, i] = np.sqrt(s)
             else:
                 work[i, k] = s / work[k, k]
+    return True
+
+
+@noalloc
+def cholesky_apply(work, b, n, x):
+    """``x[:n] = (L L^T)^-1 b[:n]`` with the factor ``L`` of ``cholesky_factor``."""
     for i in range(n):
         s = b[i]
         for t in range(i):
@@ -44,18 +53,39 @@ def cholesky_solve(a, b, n, work):
         for t in range(i + 1, n):
             s -= work[t, i] * x[t]
         x[i] = s / work[i, i]
-    return x, True
 
 
 @njit(cache=True)
+def cholesky_solve(a, b, n, work):
+    """Solve ``a[:n, :n] x = b[:n]`` for symmetric positive definite ``a``.
+
+    ``work`` (n, n) receives the factor. Returns (x, ok); ok is False when ``a`` is not
+    positive definite (to working precision).
+    """
+    x = np.zeros(n)
+    if not cholesky_factor(a, n, work):
+        return x, False
+    cholesky_apply(work, b, n, x)
+    return x, True
+
+
+@noalloc
+def row_responses(rows, idx, n, inv_mass, inv_inertia, vel, angvel, dv, b):
+    """Fill ``dv`` (n, 12) with ``M^-1 J^T`` and ``b`` (n,) with ``rhs - J v`` for the rows
+    ``idx[:n]``."""
+    for i in range(n):
+        ri = idx[i]
+        minv_jt(rows, ri, inv_mass, inv_inertia, dv[i])
+        b[i] = rows.rhs[ri] - row_velocity(rows, ri, vel, angvel)
+
+
+@noalloc
 def assemble(rows, idx, n, inv_mass, inv_inertia, vel, angvel, dv, A, b):
     """Fill ``dv`` (n, 12) with ``M^-1 J^T``, ``A`` (n, n) with ``J M^-1 J^T + CFM`` and
     ``b`` (n,) with ``rhs - J v`` for the rows ``idx[:n]``."""
-    for i in range(n):
-        minv_jt(rows, idx[i], inv_mass, inv_inertia, dv[i])
+    row_responses(rows, idx, n, inv_mass, inv_inertia, vel, angvel, dv, b)
     for i in range(n):
         ri = idx[i]
-        b[i] = rows.rhs[ri] - row_velocity(rows, ri, vel, angvel)
         for k in range(i + 1):
             rk = idx[k]
             s = 0.0
@@ -75,31 +105,89 @@ def assemble(rows, idx, n, inv_mass, inv_inertia, vel, angvel, dv, A, b):
         A[i, i] += rows.cfm[ri]
 
 
+@noalloc
+def accumulate_response(rows, idx, n, dv, p, state, clamped_only, acc):
+    """``acc`` (nbody, 6) = sum of ``dv[i] p[i]`` over the rows (only those with
+    ``state[i] != 0`` if ``clamped_only``): the velocity change [linear, angular] of the
+    bodies under those impulses."""
+    acc[:] = 0.0
+    for i in range(n):
+        if (clamped_only and state[i] == 0) or p[i] == 0.0:
+            continue
+        r = idx[i]
+        for side in range(2):
+            body = rows.body_a[r] if side == 0 else rows.body_b[r]
+            if body < 0:
+                continue
+            o = 6 * side
+            for k in range(6):
+                acc[body, k] += dv[i, o + k] * p[i]
+
+
+@njit(cache=True, inline="always")
+def row_dot(rows, r, acc):
+    """``J_r`` times the per-body velocity change ``acc`` (nbody, 6)."""
+    s = 0.0
+    for side in range(2):
+        body = rows.body_a[r] if side == 0 else rows.body_b[r]
+        if body < 0:
+            continue
+        o = 6 * side
+        for k in range(6):
+            s += rows.J[r, o + k] * acc[body, k]
+    return s
+
+
 @njit(cache=True)
 def solve_direct(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, tolerance):
     """Solve the rows exactly; returns the number of active-set iterations, negative if it
-    fell back to projected Gauss-Seidel."""
+    fell back to projected Gauss-Seidel.
+
+    rows : Rows; nrow : rows in use; inv_mass (nbody,) 1/kg; inv_inertia (nbody, 3, 3)
+    world frame; vel, angvel (nbody, 3) updated in place; impulse (nrow,) N s out."""
+    return solve_active_set(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse,
+                            tolerance, True)
+
+
+@njit(cache=True)
+def solve_active_set(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, tolerance,
+                     allow_tree):
+    """``solve_direct``; with ``allow_tree`` False always factorise densely (reference)."""
     idx = np.empty(nrow, np.int64)
-    n = 0
-    for r in range(nrow):
-        if row_active(rows, r):
-            idx[n] = r
-            n += 1
-        else:
-            impulse[r] = 0.0
+    where = np.empty(nrow, np.int64)
+    n = active_rows(rows, nrow, idx, where, impulse)
     if n == 0:
         return 0
+    nbody = vel.shape[0]
     dv = np.zeros((n, 12))
-    A = np.zeros((n, n))
     b = np.zeros(n)
-    assemble(rows, idx, n, inv_mass, inv_inertia, vel, angvel, dv, A, b)
-    # state: 0 free, -1 clamped at lo, +1 clamped at hi
-    state = np.zeros(n, np.int64)
-    p = np.zeros(n)
-    free = np.empty(n, np.int64)
-    sub = np.zeros((n, n))
-    rhs = np.zeros(n)
-    work = np.zeros((n, n))
+    tree, plan = tree_plan(rows, idx, n, inv_mass, nbody)
+    tree = tree and allow_tree
+    nd = 0 if tree else n
+    A = np.zeros((nd, nd))
+    if tree:
+        row_responses(rows, idx, n, inv_mass, inv_inertia, vel, angvel, dv, b)
+    else:
+        assemble(rows, idx, n, inv_mass, inv_inertia, vel, angvel, dv, A, b)
+    iters = _active_set(rows, idx, n, inv_mass, inv_inertia, vel, angvel, impulse, tolerance,
+                        tree, plan, A, dv, b, np.zeros(n, np.int64), np.zeros(n),
+                        np.empty(n), np.empty(n, np.int64), np.zeros((nd, nd)), np.zeros(n),
+                        np.zeros(n), np.zeros((nd, nd)), np.zeros((nbody, 6)),
+                        np.zeros((nbody, 6)))
+    if iters > 0:
+        return iters
+    _polish(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, tolerance)
+    return iters
+
+
+@noalloc
+def _active_set(rows, idx, n, inv_mass, inv_inertia, vel, angvel, impulse, tolerance, tree,
+                plan, A, dv, b, state, p, cfm, free, sub, rhs, x, work, acc, fzero):
+    """The active-set iterations of ``solve_active_set`` on its work arrays; applies the
+    impulses. Returns the iteration count, negated when it did not converge."""
+    nbody = vel.shape[0]
+    for i in range(n):
+        cfm[i] = rows.cfm[idx[i]]
     iters = 0
     converged = False
     for it in range(4 * n + 20):
@@ -111,20 +199,32 @@ def solve_direct(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, tolera
                 nf += 1
             else:
                 p[i] = rows.lo[idx[i]] if state[i] < 0 else rows.hi[idx[i]]
-        for u in range(nf):
-            i = free[u]
-            s = b[i]
-            for k in range(n):
-                if state[k] != 0:
-                    s -= A[i, k] * p[k]
-            rhs[u] = s
-            for v in range(nf):
-                sub[u, v] = A[i, free[v]]
-        x, ok = cholesky_solve(sub, rhs, nf, work)
-        if not ok:
-            break
-        for u in range(nf):
-            p[free[u]] = x[u]
+        if tree:
+            # free rows: (A_FF) p_F = b_F - A_FC p_C, with A_FC p_C = J_F (M^-1 J_C^T p_C)
+            accumulate_response(rows, idx, n, dv, p, state, True, acc)
+            for i in range(n):
+                plan.use[i] = 1 if state[i] == 0 else 0
+                rhs[i] = b[i] - row_dot(rows, idx[i], acc) if state[i] == 0 else 0.0
+            if not tree_factor(plan, rows, idx, cfm, inv_mass, inv_inertia, nbody):
+                break
+            tree_solve(plan, nbody, fzero, rhs, acc, x)
+            for u in range(nf):
+                p[free[u]] = -x[free[u]]
+        else:
+            for u in range(nf):
+                i = free[u]
+                s = b[i]
+                for k in range(n):
+                    if state[k] != 0:
+                        s -= A[i, k] * p[k]
+                rhs[u] = s
+                for v in range(nf):
+                    sub[u, v] = A[i, free[v]]
+            if not cholesky_factor(sub, nf, work):
+                break
+            cholesky_apply(work, rhs, nf, x)
+            for u in range(nf):
+                p[free[u]] = x[u]
         # the free row furthest outside its bounds is clamped
         worst, worst_i, worst_side = tolerance, -1, 0
         for u in range(nf):
@@ -138,13 +238,21 @@ def solve_direct(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, tolera
             state[worst_i] = worst_side
             continue
         # a clamped row whose velocity would pull it off its bound is released
+        if nf == n:
+            converged = True
+            break
+        if tree:
+            accumulate_response(rows, idx, n, dv, p, state, False, acc)
         worst, worst_i = tolerance, -1
         for i in range(n):
             if state[i] == 0:
                 continue
-            w = -b[i]
-            for k in range(n):
-                w += A[i, k] * p[k]
+            if tree:
+                w = -b[i] + row_dot(rows, idx[i], acc) + cfm[i] * p[i]
+            else:
+                w = -b[i]
+                for k in range(n):
+                    w += A[i, k] * p[k]
             if (state[i] < 0 and -w > worst) or (state[i] > 0 and w > worst):
                 worst, worst_i = abs(w), i
         if worst_i < 0:
@@ -153,22 +261,25 @@ def solve_direct(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, tolera
         state[worst_i] = 0
     for i in range(n):
         r = idx[i]
-        pi = min(max(p[i], rows.lo[r]), rows.hi[r])
-        impulse[r] = pi
-        apply_impulse(rows, r, dv[i], pi, vel, angvel)
-    if converged:
-        return iters
-    _polish(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, tolerance)
-    return -iters
+        p[i] = min(max(p[i], rows.lo[r]), rows.hi[r])
+        impulse[r] = p[i]
+    apply_impulses(rows, idx, n, dv, p, vel, angvel)
+    return iters if converged else -iters
 
 
 @njit(cache=True)
 def _polish(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, tolerance):
     """PGS sweeps that continue from the impulses already applied to the velocities."""
-    # The velocities already include the impulses: take them out, then warm-start PGS.
-    dv = np.zeros(12)
+    _unapply(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, np.zeros(12))
+    # (np.int64 / np.bool_: typed like the step's own call, so no second compilation)
+    solve_pgs(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, np.int64(200), tolerance,
+              np.bool_(True))
+
+
+@noalloc
+def _unapply(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, dv):
+    """Take the impulses back out of the velocities (PGS then warm-starts from them)."""
     for r in range(nrow):
         if row_active(rows, r) and impulse[r] != 0.0:
             minv_jt(rows, r, inv_mass, inv_inertia, dv)
             apply_impulse(rows, r, dv, -impulse[r], vel, angvel)
-    solve_pgs(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, 200, tolerance, True)

@@ -19,9 +19,11 @@ keeps the basis feasible by the minimum-ratio test. It stops when ``z0`` leaves
 no solution, see above) or at the pivot cap. A ray or a failed verification (below) is
 retried once with a coarser pivot tolerance (see ``lemke``).
 
-The tableau is held as the dense basis inverse ``B^-1`` (n, n) plus the basic values
-``B^-1 q``; a pivot costs O(n^2): one matrix-vector product for the entering column and
-one rank-one update of ``B^-1``. Columns of ``M`` are read, never updated.
+The tableau is held as the dense basis inverse ``B^-1`` (n, n), stored transposed so that
+both O(n^2) parts of a pivot -- the matrix-vector product for the entering column and
+the rank-one update of ``B^-1`` -- sweep contiguous memory (and skip the zeros of ``M``
+and of the pivot row), plus the basic values ``B^-1 q``. Columns of ``M`` are read,
+never updated.
 
 Anti-cycling. Ties in the ratio test (degenerate problems: zeros in ``q``, repeated
 columns, the paired +-t friction directions and coplanar contacts of rigid bodies) are
@@ -65,6 +67,8 @@ CFM 1e-8: 0.7 %. A reported LEMKE_SOLVED is always verified.
 import numpy as np
 from numba import njit
 
+from ..._jit import noalloc
+
 LEMKE_SOLVED = 0       # z_out holds a verified solution
 LEMKE_RAY = 1          # secondary ray: for copositive-plus M, proof that none exists
 LEMKE_MAX_ITER = 2     # pivot cap reached
@@ -85,38 +89,42 @@ VERIFY_TOL = 1e-8
 RETRY_PIVOT_TOL = 1e-6
 
 
-@njit(cache=True)
-def _entering_column(code, n, binv, mt, col):
+@noalloc
+def _entering_column(code, n, bt, mt, col):
     """``col = B^-1 A[:, code]`` for the augmented system ``I w - M z - d z0 = q``.
 
     code < n is ``w_code`` (column e_code), n <= code < 2n is ``z_(code-n)`` (column
     ``-M[:, code-n]``, read from row ``code-n`` of ``mt = M^T``), 2n is ``z0`` (``-d``).
-    Returns False if the column is not finite (the pivoting has broken down).
+    ``bt`` is ``B^-1`` transposed (row k = column k of ``B^-1``), so every product below
+    runs along contiguous memory; zero entries of ``M`` are skipped. Returns False if the
+    column is not finite (the pivoting has broken down).
     """
     if code < n:
         for i in range(n):
-            col[i] = binv[i, code]
+            col[i] = bt[code, i]
     elif code < 2 * n:
         j = code - n
         for i in range(n):
-            s = 0.0
-            for k in range(n):
-                s -= binv[i, k] * mt[j, k]
-            col[i] = s
+            col[i] = 0.0
+        for k in range(n):
+            a = mt[j, k]
+            if a != 0.0:
+                for i in range(n):
+                    col[i] -= bt[k, i] * a
     else:
         for i in range(n):
-            s = 0.0
-            for k in range(n):
-                s -= binv[i, k]
-            col[i] = s
+            col[i] = 0.0
+        for k in range(n):
+            for i in range(n):
+                col[i] -= bt[k, i]
     for i in range(n):
         if not np.isfinite(col[i]):
             return False
     return True
 
 
-@njit(cache=True)
-def _leaving_row(col, x, binv, basis, n, pivot_tol, cand, noise):
+@noalloc
+def _leaving_row(col, x, bt, basis, n, pivot_tol, cand, noise):
     """Row whose basic variable leaves when the variable of ``col`` enters.
 
     Minimum ratio ``max(x_i, 0) / col_i`` over rows with ``col_i > pivot_tol`` (slightly
@@ -125,7 +133,7 @@ def _leaving_row(col, x, binv, basis, n, pivot_tol, cand, noise):
     pivots (module docstring).
     ``noise`` is the absolute rounding noise of ``x`` and ``B^-1`` entries. Returns -1
     when no entry exceeds ``pivot_tol`` (ray), -2 on a non-finite ratio. ``cand`` (n,)
-    int64 is scratch.
+    int64 is scratch; ``bt`` is ``B^-1`` transposed.
     """
     m = 0
     theta = np.inf
@@ -165,12 +173,12 @@ def _leaving_row(col, x, binv, basis, n, pivot_tol, cand, noise):
         lo = np.inf
         for t in range(m):
             i = cand[t]
-            lo = min(lo, binv[i, c] / col[i])
+            lo = min(lo, bt[c, i] / col[i])
         lim = lo + TIE_TOL * max(1.0, abs(lo))
         k = 0
         for t in range(m):
             i = cand[t]
-            if binv[i, c] / col[i] <= lim + noise / col[i]:
+            if bt[c, i] / col[i] <= lim + noise / col[i]:
                 cand[k] = i
                 k += 1
         m = k
@@ -190,33 +198,41 @@ def _leaving_row(col, x, binv, basis, n, pivot_tol, cand, noise):
     return best
 
 
-@njit(cache=True)
-def _pivot(r, col, binv, x, n):
-    """Make the entering variable basic in row ``r``: Gauss-Jordan step on ``B^-1, x``.
+@noalloc
+def _pivot(r, col, bt, x, n):
+    """Make the entering variable basic in row ``r``: Gauss-Jordan step on ``B^-1, x``
+    (``bt`` = ``B^-1`` transposed: row r of ``B^-1`` is column r of ``bt``).
 
     Returns a bound on the size of the entries written (row r times the largest
     multiplier), which tracks the growth that sets the rounding noise of the tableau."""
     inv = 1.0 / col[r]
     rmax = 0.0
     for k in range(n):
-        binv[r, k] *= inv
-        rmax = max(rmax, abs(binv[r, k]))
+        bt[k, r] *= inv
+        rmax = max(rmax, abs(bt[k, r]))
     x[r] *= inv
     rmax = max(rmax, abs(x[r]))
     fmax = 1.0
     for i in range(n):
         fmax = max(fmax, abs(col[i]))
+    # B^-1[i, k] -= col[i] B^-1[r, k] for every row i != r: one contiguous sweep per k
+    # (B^-1 starts sparse: columns k where row r is zero have nothing to do)
+    for k in range(n):
+        brk = bt[k, r]
+        if brk == 0.0:
+            continue
+        for i in range(n):
+            bt[k, i] -= col[i] * brk
+        bt[k, r] = brk
     for i in range(n):
         f = col[i]
-        if i == r or f == 0.0:            # B^-1 starts sparse: skip rows with nothing to do
+        if i == r or f == 0.0:
             continue
-        for k in range(n):
-            binv[i, k] -= f * binv[r, k]
         x[i] -= f * x[r]
     return rmax * fmax
 
 
-@njit(cache=True)
+@noalloc
 def _residual_normalised(mt, qn, zn, n, w):
     """``max_i |min(z_i, w_i)| / (1 + max|z|)`` for ``w = Mn z + qn`` (``mt = Mn^T``,
     ``w`` (n,) is scratch); NaN anywhere gives inf."""
@@ -237,7 +253,7 @@ def _residual_normalised(mt, qn, zn, n, w):
     return res / (1.0 + zmax)
 
 
-@njit(cache=True)
+@noalloc
 def _solve_final_basis(mt, qn, basis, n, zn, work, idx):
     """Solve ``Mn[S, S] z_S = -qn[S]`` for the set S of basic z's by Gaussian elimination
     with partial pivoting into ``zn`` (other entries 0, negatives clamped to 0).
@@ -279,23 +295,23 @@ def _solve_final_basis(mt, qn, basis, n, zn, work, idx):
     return True
 
 
-@njit(cache=True)
-def _path(mt, qn, r0, n, max_iter, pivot_tol, binv, x, basis, col, cand, zn, work):
+@noalloc
+def _path(mt, qn, r0, n, max_iter, pivot_tol, bt, x, basis, col, cand, zn, work):
     """Follow Lemke's path for the normalised problem (``mt = Mn^T``, ``qn``) starting
     with ``z0`` entering in row ``r0``; on success ``zn`` holds the verified normalised
     solution. All arrays are scratch of the sizes allocated in ``lemke``.
     Returns (status, pivots)."""
     for i in range(n):
         for k in range(n):
-            binv[i, k] = 0.0
-        binv[i, i] = 1.0
+            bt[i, k] = 0.0
+        bt[i, i] = 1.0
         x[i] = qn[i]                      # basic values B^-1 qn
         basis[i] = i                      # codes: w_j = j, z_j = n + j, z0 = 2n
         zn[i] = 0.0
 
     # first pivot: z0 enters in the row of the most negative q, making every w >= 0
-    _entering_column(2 * n, n, binv, mt, col)
-    grown = max(1.0, _pivot(r0, col, binv, x, n))
+    _entering_column(2 * n, n, bt, mt, col)
+    grown = max(1.0, _pivot(r0, col, bt, x, n))
     leaving = basis[r0]
     basis[r0] = 2 * n
     pivots = 1
@@ -303,14 +319,14 @@ def _path(mt, qn, r0, n, max_iter, pivot_tol, binv, x, basis, col, cand, zn, wor
         entering = leaving + n if leaving < n else leaving - n   # the complement
         if pivots >= max_iter:
             return LEMKE_MAX_ITER, pivots
-        if not _entering_column(entering, n, binv, mt, col):
+        if not _entering_column(entering, n, bt, mt, col):
             return LEMKE_BAD_INPUT, pivots
-        r = _leaving_row(col, x, binv, basis, n, pivot_tol, cand, NOISE * grown)
+        r = _leaving_row(col, x, bt, basis, n, pivot_tol, cand, NOISE * grown)
         if r == -1:
             return LEMKE_RAY, pivots
         if r < 0:
             return LEMKE_BAD_INPUT, pivots
-        grown = max(grown, _pivot(r, col, binv, x, n))
+        grown = max(grown, _pivot(r, col, bt, x, n))
         leaving = basis[r]
         basis[r] = entering
         pivots += 1
@@ -368,7 +384,7 @@ def lemke(M, q, max_iter, pivot_tol, z_out):
                 return LEMKE_BAD_INPUT, 0
             scale_m = max(scale_m, abs(a))
     scale_q = 0.0
-    r0 = -1
+    r0 = np.int64(-1)                  # not a literal: one compilation of _path
     for i in range(n):
         if not np.isfinite(q[i]):
             return LEMKE_BAD_INPUT, 0
@@ -389,7 +405,7 @@ def lemke(M, q, max_iter, pivot_tol, z_out):
     qn = np.empty(n)                      # q / max|q|
     for i in range(n):
         qn[i] = q[i] / scale_q
-    binv = np.empty((n, n))
+    bt = np.empty((n, n))
     x = np.empty(n)
     basis = np.empty(n, np.int64)
     col = np.empty(n)
@@ -397,13 +413,13 @@ def lemke(M, q, max_iter, pivot_tol, z_out):
     zn = np.empty(n)
     work = np.empty((n, n + 1))           # for the final direct solve
 
-    status, pivots = _path(mt, qn, r0, n, max_iter, pivot_tol, binv, x, basis, col, cand,
+    status, pivots = _path(mt, qn, r0, n, max_iter, pivot_tol, bt, x, basis, col, cand,
                            zn, work)
     if (status == LEMKE_RAY or status == LEMKE_INACCURATE) and pivot_tol < RETRY_PIVOT_TOL \
             and pivots < max_iter:
         # a nearly singular basis (tiny regularisation of redundant rows) can derail the
         # path; treating such pivots as zero usually keeps it on a solvable track
-        status2, pivots2 = _path(mt, qn, r0, n, max_iter - pivots, RETRY_PIVOT_TOL, binv,
+        status2, pivots2 = _path(mt, qn, r0, n, max_iter - pivots, RETRY_PIVOT_TOL, bt,
                                  x, basis, col, cand, zn, work)
         pivots += pivots2
         if status2 == LEMKE_SOLVED:

@@ -1,0 +1,550 @@
+"""Linear-time solve of ``(J M^-1 J^T + C) p = r`` for tree-structured constraints.
+
+The constraints of an articulated character form a tree: bodies joined by joints. Baraff
+(1996, "Linear-time dynamics using Lagrange multipliers") solves the augmented system
+
+    K [u; y] = [f; g],      K = [[M, J^T], [J, -C]]
+
+(``M`` the bodies' mass matrix, ``C`` the rows' CFM) over the graph whose nodes are the
+bodies and the constraints and whose edges join a constraint to the bodies it acts on.
+When that graph is a tree, eliminating the nodes leaves first creates no fill-in, so
+``K = L D L^T`` keeps the sparsity of ``K`` and costs O(nodes) small dense blocks. With
+``f = 0``, ``y = -p`` solves ``(J M^-1 J^T + C) p = g`` and ``u = M^-1 J^T p`` is the
+velocity change the impulses ``p`` cause; with ``f = J_c^T`` and ``g = 0``, ``u`` is the
+velocity change of the constrained system per unit impulse on an outside row ``c``
+(what the Schur complement of the mixed LCP needs).
+
+Nodes. Rows are grouped by the pair of bodies they act on, counting every body that
+cannot move (kinematic, static, the world) as "ground"; each pair is one constraint node
+(several joints between the same two bodies share one), each dynamic body one body node.
+A connected part of the graph may touch the ground through at most one constraint node,
+which becomes its root (a chain hanging from the world); a part that never touches it
+(a free-floating ragdoll) is rooted at a body. Any other shape -- a loop of joints, two
+ground contacts on one part -- is not a tree: ``tree_plan`` reports it and the caller
+solves densely instead.
+
+Blocks. Node i holds ``P_i``, which is positive definite: for a body, its 6x6 mass
+matrix (mass, world inertia) plus what its children constraints add; for a constraint,
+its CFM plus what its children bodies add. Then ``D_i = P_i`` for bodies and ``-P_i``
+for constraints, and since a parent and a child are always of different kinds, the
+update of a parent by a child ``D_p -= K_pi D_i^-1 K_ip`` is ``P_p += W^T W`` with
+``W = L_i^-1 K_ip`` (``P_i = L_i L_i^T``, Cholesky). Units are those of the rows: the
+solution ``p`` is in N s (N m s for angular rows).
+"""
+from collections import namedtuple
+
+import numpy as np
+from numba import njit
+
+from ..._jit import noalloc
+
+# Which rows form which node, and the elimination order (see tree_plan).
+TreePlan = namedtuple("TreePlan", [
+    "meta",        # (3,) int64: number of pair nodes, nodes in `order`, largest pair size
+    "pair_rows",   # (n,) int64 row positions grouped by pair (in the order of `sel`)
+    "pair_start",  # (n + 1,) int64 first entry of each pair in pair_rows
+    "pair_body",   # (n, 2) int64 the pair's dynamic bodies, -1 for ground
+    "order",       # (nbody + n,) int64 nodes, parents before children; bodies 0..nbody-1,
+                   # pair p is node nbody + p
+    "opos",        # (nbody + n,) int64 position of each node in `order` (-1: not in it)
+    "parent",      # (nbody + n,) int64 parent node, -1 for a root
+    "fac_off",     # (nbody + n,) int64 offset of each node's factor in `fac`
+    "z_off",       # (nbody + n,) int64 offset of each node's unknowns in the solution vector
+    "dim",         # (nbody + n,) int64 size of each node's block in the last factorisation
+    "fac",         # (36 nbody + sum of pair sizes^2,) Cholesky factors L, row-major blocks
+    "w_off",       # (nbody + n,) int64 offset of each node's W = L^-1 K_node,parent in `wmat`
+    "wmat",        # (12 n,) float64 the W blocks, row-major (dim node x dim parent)
+    "eparent",     # (nbody + n,) int64 parent in the last factorisation (-1: none)
+    "row_z",       # (n,) int64 position of each row's unknown in `z` (-1: not in use)
+    "use",         # (n,) int64 1 when a row takes part in the factorisation
+    "z",           # (6 nbody + n,) float64 right-hand side, then solution
+    "dinv",        # (6 nbody + n,) float64 1 / diagonal of each node's factor, at z_off
+])
+
+
+@njit(cache=True, inline="always")
+def _dyn(b, inv_mass):
+    """Body ``b`` if it can move, else -1 (ground)."""
+    return b if (b >= 0 and inv_mass[b] > 0.0) else -1
+
+
+@njit(cache=True)
+def tree_plan(rows, sel, n, inv_mass, nbody):
+    """Group the rows ``sel[:n]`` into nodes and order them for elimination.
+
+    Returns (ok, plan). ``ok`` is False when the body-constraint graph is not a forest
+    with at most one ground constraint per part (see the module docstring); the plan is
+    then unusable.
+    """
+    nnode = nbody + n
+    key = np.empty(n, np.int64)
+    for i in range(n):
+        r = sel[i]
+        a = _dyn(rows.body_a[r], inv_mass)
+        b = _dyn(rows.body_b[r], inv_mass)
+        a = nbody if a < 0 else a
+        b = nbody if b < 0 else b
+        key[i] = min(a, b) * (nbody + 1) + max(a, b)
+    perm = np.argsort(key, kind="mergesort")      # stable: rows keep their order in a pair
+    pair_rows = np.empty(n, np.int64)
+    pair_start = np.zeros(n + 1, np.int64)
+    pair_body = np.full((max(n, 1), 2), -1, np.int64)
+    npair = 0
+    maxdim = 6
+    fac_size = 36 * nbody
+    last = -1
+    size = 0
+    for t in range(n):
+        i = perm[t]
+        pair_rows[t] = i
+        if t == 0 or key[i] != last:
+            if npair > 0:
+                fac_size += size * size
+                maxdim = max(maxdim, size)
+            pair_start[npair] = t
+            lo, hi = key[i] // (nbody + 1), key[i] % (nbody + 1)
+            if lo == hi and lo < nbody:
+                return False, _empty_plan()       # a row on one body twice: not a tree edge
+            pair_body[npair, 0] = lo if lo < nbody else -1
+            pair_body[npair, 1] = hi if hi < nbody else -1
+            npair += 1
+            size = 0
+            last = key[i]
+        size += 1
+    if npair > 0:
+        fac_size += size * size
+        maxdim = max(maxdim, size)
+    pair_start[npair] = n
+    # pairs adjacent to each body (CSR)
+    adj_start = np.zeros(nbody + 1, np.int64)
+    for p in range(npair):
+        for s in range(2):
+            if pair_body[p, s] >= 0:
+                adj_start[pair_body[p, s] + 1] += 1
+    for b in range(nbody):
+        adj_start[b + 1] += adj_start[b]
+    adj = np.empty(adj_start[nbody], np.int64)
+    fill = adj_start[:nbody].copy()
+    for p in range(npair):
+        for s in range(2):
+            b = pair_body[p, s]
+            if b >= 0:
+                adj[fill[b]] = p
+                fill[b] += 1
+    # breadth-first search from each root; a second path to a node is a loop
+    order = np.empty(nnode, np.int64)
+    parent = np.full(nnode, -1, np.int64)
+    seen = np.zeros(nnode, np.bool_)
+    norder = 0
+    for phase in range(2):
+        for p in range(npair):
+            node = nbody + p
+            if seen[node]:
+                continue
+            grounded = pair_body[p, 0] < 0 or pair_body[p, 1] < 0
+            if phase == 0 and not grounded:
+                continue
+            # phase 0: roots at ground pairs; phase 1: free-floating parts, rooted at a body
+            root = node if phase == 0 else pair_body[p, 0]
+            seen[root] = True
+            order[norder] = root
+            head = norder
+            norder += 1
+            while head < norder:
+                u = order[head]
+                head += 1
+                if u >= nbody:                  # a pair node: its one or two bodies
+                    q = u - nbody
+                    for s in range(2):
+                        v = pair_body[q, s]
+                        if v < 0 or v == parent[u]:
+                            continue
+                        if seen[v]:
+                            return False, _empty_plan()
+                        seen[v] = True
+                        parent[v] = u
+                        order[norder] = v
+                        norder += 1
+                else:                           # a body: its pairs
+                    for e in range(adj_start[u], adj_start[u + 1]):
+                        v = nbody + adj[e]
+                        if v == parent[u]:
+                            continue
+                        if seen[v]:
+                            return False, _empty_plan()
+                        q = adj[e]
+                        if pair_body[q, 0] < 0 or pair_body[q, 1] < 0:
+                            return False, _empty_plan()   # a second way to the ground
+                        seen[v] = True
+                        parent[v] = u
+                        order[norder] = v
+                        norder += 1
+    meta = np.array([npair, norder, maxdim], np.int64)
+    opos = np.full(nnode, -1, np.int64)
+    for t in range(norder):
+        opos[order[t]] = t
+    return True, TreePlan(meta, pair_rows, pair_start, pair_body, order, opos, parent,
+                          np.zeros(nnode, np.int64), np.zeros(nnode, np.int64),
+                          np.zeros(nnode, np.int64), np.zeros(fac_size),
+                          np.zeros(nnode, np.int64), np.zeros(12 * max(n, 1)),
+                          np.full(nnode, -1, np.int64), np.full(max(n, 1), -1, np.int64),
+                          np.ones(max(n, 1), np.int64), np.zeros(6 * nbody + n),
+                          np.zeros(6 * nbody + n))
+
+
+@njit(cache=True)
+def _empty_plan():
+    z = np.zeros(1, np.int64)
+    return TreePlan(np.zeros(3, np.int64), z, z, np.zeros((1, 2), np.int64), z, z, z, z, z, z,
+                    np.zeros(1), z, np.zeros(1), z, z, z, np.zeros(1), np.zeros(1))
+
+
+@njit(cache=True, inline="always")
+def _joff(rows, r, b):
+    """Column offset (0 or 6) of body ``b``'s part of row ``r``'s Jacobian."""
+    return 0 if rows.body_a[r] == b else 6
+
+
+@noalloc
+def _chol(a, off, d, dinv, doff):
+    """In-place Cholesky of the d x d row-major block at ``a[off:]`` (lower triangle), the
+    reciprocals of its diagonal into ``dinv[doff:]`` (multiplying beats dividing in the
+    substitutions). False if not positive definite."""
+    for i in range(d):
+        for k in range(i + 1):
+            s = a[off + i * d + k]
+            for t in range(k):
+                s -= a[off + i * d + t] * a[off + k * d + t]
+            if i == k:
+                if s <= 1e-300:
+                    return False
+                a[off + i * d + i] = np.sqrt(s)
+                dinv[doff + i] = 1.0 / a[off + i * d + i]
+            else:
+                a[off + i * d + k] = s * dinv[doff + k]
+    return True
+
+
+@njit(cache=True, inline="always")
+def _inv3(a):
+    """Inverse of a symmetric positive definite 3x3 matrix, row-major flat tuple."""
+    c00 = a[1, 1] * a[2, 2] - a[1, 2] * a[2, 1]
+    c01 = a[1, 2] * a[2, 0] - a[1, 0] * a[2, 2]
+    c02 = a[1, 0] * a[2, 1] - a[1, 1] * a[2, 0]
+    det = a[0, 0] * c00 + a[0, 1] * c01 + a[0, 2] * c02
+    inv = 1.0 / det
+    return (c00 * inv, (a[0, 2] * a[2, 1] - a[0, 1] * a[2, 2]) * inv,
+            (a[0, 1] * a[1, 2] - a[0, 2] * a[1, 1]) * inv,
+            c01 * inv, (a[0, 0] * a[2, 2] - a[0, 2] * a[2, 0]) * inv,
+            (a[0, 2] * a[1, 0] - a[0, 0] * a[1, 2]) * inv,
+            c02 * inv, (a[0, 1] * a[2, 0] - a[0, 0] * a[2, 1]) * inv,
+            (a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]) * inv)
+
+
+@noalloc
+def tree_factor(plan, rows, sel, cfm, inv_mass, inv_inertia, nbody):
+    """Factorise ``K`` for the rows of ``plan`` with ``plan.use[i] == 1``.
+
+    cfm (n,) : the diagonal ``C`` of each row position (velocity per impulse).
+    inv_mass (nbody,), inv_inertia (nbody, 3, 3) world frame. Returns False if a block
+    is not positive definite (redundant rows without CFM)."""
+    norder = plan.meta[1]
+    fac, dim, foff, zoff = plan.fac, plan.dim, plan.fac_off, plan.z_off
+    # block sizes and offsets; a pair with no row in use drops out, its children
+    # become roots
+    fo = 0
+    zo = 0
+    for t in range(norder):
+        u = plan.order[t]
+        if u < nbody:
+            d = 6
+        else:
+            p = u - nbody
+            d = 0
+            for e in range(plan.pair_start[p], plan.pair_start[p + 1]):
+                i = plan.pair_rows[e]
+                if plan.use[i]:
+                    plan.row_z[i] = zo + d
+                    d += 1
+                else:
+                    plan.row_z[i] = -1
+        dim[u] = d
+        foff[u] = fo
+        zoff[u] = zo
+        fo += d * d
+        zo += d
+    wo = 0
+    for t in range(norder):
+        u = plan.order[t]
+        pa = plan.parent[u]
+        if pa >= 0 and dim[pa] == 0:
+            pa = -1
+        plan.eparent[u] = pa
+        plan.w_off[u] = wo
+        if pa >= 0:
+            wo += dim[u] * dim[pa]
+    # initial blocks: mass matrices and CFM
+    for t in range(norder):
+        u = plan.order[t]
+        d = dim[u]
+        o = foff[u]
+        for k in range(d * d):
+            fac[o + k] = 0.0
+        if u < nbody:
+            m = 1.0 / inv_mass[u]
+            for k in range(3):
+                fac[o + k * 6 + k] = m
+            iw = _inv3(inv_inertia[u])
+            for i in range(3):
+                for k in range(3):
+                    fac[o + (3 + i) * 6 + 3 + k] = iw[i * 3 + k]
+        else:
+            p = u - nbody
+            k = 0
+            for e in range(plan.pair_start[p], plan.pair_start[p + 1]):
+                i = plan.pair_rows[e]
+                if plan.use[i]:
+                    fac[o + k * d + k] = cfm[i]
+                    k += 1
+    # eliminate children first: P_u = L L^T, W = L^-1 K_u,parent, P_parent += W^T W
+    wm = plan.wmat
+    for t in range(norder - 1, -1, -1):
+        u = plan.order[t]
+        d = dim[u]
+        if d == 0:
+            continue
+        lo = foff[u]
+        if not _chol(fac, lo, d, plan.dinv, zoff[u]):
+            return False
+        pa = plan.eparent[u]
+        if pa < 0:
+            continue
+        dp = dim[pa]
+        wo = plan.w_off[u]
+        _coupling(plan, rows, sel, u, pa, nbody, wm, wo, dp)
+        di = zoff[u]
+        for i in range(d):
+            inv = plan.dinv[di + i]
+            for c in range(dp):
+                s = wm[wo + i * dp + c]
+                for k in range(i):
+                    s -= fac[lo + i * d + k] * wm[wo + k * dp + c]
+                wm[wo + i * dp + c] = s * inv
+        op = foff[pa]
+        for a in range(dp):
+            for c in range(a + 1):
+                s = 0.0
+                for i in range(d):
+                    s += wm[wo + i * dp + a] * wm[wo + i * dp + c]
+                fac[op + a * dp + c] += s
+                if c != a:
+                    fac[op + c * dp + a] += s
+    return True
+
+
+@noalloc
+def _coupling(plan, rows, sel, u, pa, nbody, wm, wo, dp):
+    """wm[wo:] = K_{u, pa} (dim u x dp, row-major): a pair's Jacobian block on its parent
+    body, or a body's (6 x m) transposed block of its parent pair."""
+    if u >= nbody:                       # u pair, pa body: rows of u, columns of pa
+        p = u - nbody
+        k = 0
+        for e in range(plan.pair_start[p], plan.pair_start[p + 1]):
+            i = plan.pair_rows[e]
+            if plan.use[i]:
+                r = sel[i]
+                o = _joff(rows, r, pa)
+                for c in range(6):
+                    wm[wo + k * dp + c] = rows.J[r, o + c]
+                k += 1
+    else:                                # u body, pa pair: K = J_pa,u^T (6 x m)
+        p = pa - nbody
+        k = 0
+        for e in range(plan.pair_start[p], plan.pair_start[p + 1]):
+            i = plan.pair_rows[e]
+            if plan.use[i]:
+                r = sel[i]
+                o = _joff(rows, r, u)
+                for c in range(6):
+                    wm[wo + c * dp + k] = rows.J[r, o + c]
+                k += 1
+
+
+@noalloc
+def tree_solve(plan, nbody, f, g, u_out, y_out):
+    """Solve ``K [u; y] = [f; g]`` with the factorisation of ``tree_factor``.
+
+    f (nbody, 6) : right-hand side of the body nodes (force-like: [linear, angular]).
+    g (n,) : right-hand side of the rows (only rows in use are read).
+    u_out (nbody, 6) : the bodies' unknowns (zero for bodies outside the system).
+    y_out (n,) : the rows' unknowns (zero for rows not in use). ``y = -p``.
+    """
+    norder = plan.meta[1]
+    z, fac, dim, foff, zoff, wm = plan.z, plan.fac, plan.dim, plan.fac_off, plan.z_off, plan.wmat
+    dinv = plan.dinv
+    for t in range(norder):
+        u = plan.order[t]
+        if u < nbody:
+            o = zoff[u]
+            for k in range(6):
+                z[o + k] = f[u, k]
+    n = y_out.shape[0]
+    for i in range(n):
+        if plan.row_z[i] >= 0:
+            z[plan.row_z[i]] = g[i]
+    # forward, children first: z_u <- L_u^-1 z_u, z_parent -= s_u W_u^T z_u
+    for t in range(norder - 1, -1, -1):
+        u = plan.order[t]
+        d = dim[u]
+        if d == 0:
+            continue
+        o = zoff[u]
+        lo = foff[u]
+        for i in range(d):
+            s = z[o + i]
+            for k in range(i):
+                s -= fac[lo + i * d + k] * z[o + k]
+            z[o + i] = s * dinv[o + i]
+        pa = plan.eparent[u]
+        if pa < 0:
+            continue
+        dp = dim[pa]
+        op = zoff[pa]
+        wo = plan.w_off[u]
+        sign = 1.0 if u < nbody else -1.0
+        for c in range(dp):
+            s = 0.0
+            for i in range(d):
+                s += wm[wo + i * dp + c] * z[o + i]
+            z[op + c] -= sign * s
+    # backward, parents first: x_u = s_u L_u^-T (z_u - W_u x_parent)
+    for t in range(norder):
+        u = plan.order[t]
+        d = dim[u]
+        if d == 0:
+            continue
+        o = zoff[u]
+        lo = foff[u]
+        pa = plan.eparent[u]
+        if pa >= 0:
+            dp = dim[pa]
+            op = zoff[pa]
+            wo = plan.w_off[u]
+            for i in range(d):
+                s = 0.0
+                for c in range(dp):
+                    s += wm[wo + i * dp + c] * z[op + c]
+                z[o + i] -= s
+        for i in range(d - 1, -1, -1):
+            s = z[o + i]
+            for k in range(i + 1, d):
+                s -= fac[lo + k * d + i] * z[o + k]
+            z[o + i] = s * dinv[o + i]
+        if u >= nbody:
+            for i in range(d):
+                z[o + i] = -z[o + i]
+    for b in range(nbody):
+        for k in range(6):
+            u_out[b, k] = 0.0
+    for t in range(norder):
+        u = plan.order[t]
+        if u < nbody:
+            o = zoff[u]
+            for k in range(6):
+                u_out[u, k] = z[o + k]
+    for i in range(n):
+        y_out[i] = z[plan.row_z[i]] if plan.row_z[i] >= 0 else 0.0
+
+
+@noalloc
+def tree_inverse_mass_rows(plan, rows, cols, ncol, dv, nbody, zc, member, path, plen, out):
+    """``out[a, b] = J_a M_B^-1 J_b^T`` for the rows ``cols[:ncol]`` (no CFM added).
+
+    ``M_B^-1`` is the inverse mass of the bodies under the rows factorised in ``plan``:
+    for bodies in the tree, the top-left block of ``K^-1``; for others, their own inverse
+    mass (``dv`` (ncol, 12): ``M^-1 J^T`` of each row). With ``K = L D L^T``,
+    ``f_a^T K^-1 f_b = sum over nodes u of s_u h_a,u . h_b,u``, ``h = L^-1 f``, and
+    ``h_a`` is non-zero only on the paths from row a's bodies to their root, so each row
+    costs its path and each pair of rows their common path: no full solve per row.
+
+    Work arrays: zc (ncol, 6 nbody + n) float64, member (ncol, nbody + n) bool, both
+    zero on entry and left zero; path (ncol, nbody + n) int64; plen (ncol,) int64.
+    """
+    dim, zoff, foff, fac, wm = plan.dim, plan.z_off, plan.fac_off, plan.fac, plan.wmat
+    for a in range(ncol):
+        r = cols[a]
+        plen[a] = 0
+        for side in range(2):
+            b = rows.body_a[r] if side == 0 else rows.body_b[r]
+            if b < 0 or dim[b] != 6:
+                continue                         # ground, or a body outside the tree
+            for k in range(6):
+                zc[a, zoff[b] + k] += rows.J[r, 6 * side + k]
+            u = b
+            while u >= 0 and not member[a, u]:
+                member[a, u] = True
+                path[a, plen[a]] = u
+                plen[a] += 1
+                u = plan.eparent[u]
+        # children before parents: sort the path by position in the order, last first
+        m = plen[a]
+        for i in range(1, m):
+            v = path[a, i]
+            k = i - 1
+            while k >= 0 and plan.opos[path[a, k]] < plan.opos[v]:
+                path[a, k + 1] = path[a, k]
+                k -= 1
+            path[a, k + 1] = v
+        for t in range(m):
+            u = path[a, t]
+            d = dim[u]
+            o = zoff[u]
+            lo = foff[u]
+            for i in range(d):
+                acc = zc[a, o + i]
+                for k in range(i):
+                    acc -= fac[lo + i * d + k] * zc[a, o + k]
+                zc[a, o + i] = acc * plan.dinv[o + i]
+            pa = plan.eparent[u]
+            if pa < 0:
+                continue
+            dp = dim[pa]
+            op = zoff[pa]
+            wo = plan.w_off[u]
+            sign = 1.0 if u < nbody else -1.0
+            for c in range(dp):
+                acc = 0.0
+                for i in range(d):
+                    acc += wm[wo + i * dp + c] * zc[a, o + i]
+                zc[a, op + c] -= sign * acc
+    for a in range(ncol):
+        ra = cols[a]
+        for bb in range(a + 1):
+            rb = cols[bb]
+            acc = 0.0
+            for t in range(plen[a]):
+                u = path[a, t]
+                if member[bb, u]:
+                    o = zoff[u]
+                    dot = 0.0
+                    for k in range(dim[u]):
+                        dot += zc[a, o + k] * zc[bb, o + k]
+                    acc += dot if u < nbody else -dot
+            # bodies outside the tree: their own inverse mass
+            for sa in range(2):
+                body = rows.body_a[ra] if sa == 0 else rows.body_b[ra]
+                if body < 0 or dim[body] == 6:
+                    continue
+                for sb in range(2):
+                    other = rows.body_a[rb] if sb == 0 else rows.body_b[rb]
+                    if other == body:
+                        for k in range(6):
+                            acc += rows.J[ra, 6 * sa + k] * dv[bb, 6 * sb + k]
+            out[a, bb] = acc
+            out[bb, a] = acc
+    for a in range(ncol):
+        for t in range(plen[a]):
+            u = path[a, t]
+            member[a, u] = False
+            for k in range(dim[u]):
+                zc[a, zoff[u] + k] = 0.0
