@@ -8,6 +8,7 @@ collision bits do not match (MuJoCo's contype/conaffinity rule) and excluded bod
 impulse of the contact with the same geoms and feature id in the previous step, so the
 solvers can warm start.
 """
+import numpy as np
 from numba import njit
 
 from ..math.quat import quat_mul, quat_rotate
