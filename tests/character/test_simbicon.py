@@ -25,8 +25,9 @@ from hypothesis import given, settings, strategies as st
 import tumble
 from tumble.character import _quat as Q
 from tumble.character.balance import center_of_mass
-from tumble.character.simbicon import (BipedMap, Push, SimbiconController, gait_names,
-                                       load_gait, run_walk)
+from tumble.character.balance import Push
+from tumble.character.simbicon import (BipedMap, SimbiconController, gait_names, load_gait,
+                                       run_walk)
 from tumble.character.terrain import Heightfield, Slope
 from tumble.errors import ModelError
 
@@ -276,7 +277,7 @@ def test_survives_pushes(gait, direction, force):
     while c.time < 5.0:
         c.step()
     f = force * np.asarray(direction, float)
-    r = run_walk(c, 5.0, place=False, pushes=[Push(f, c.time, 0.2, "lowerback_torso")])
+    r = run_walk(c, 5.0, place=False, pushes=[Push("lowerback_torso", f, c.world.time, 0.2)])
     _no_fall(r)
     assert r.forward_distance > 0.3                        # and walks on
 

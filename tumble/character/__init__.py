@@ -6,7 +6,7 @@
     PDController, pd_torques, apply_joint_torques             joint PD (in-step or NumPy)
     HandOfGod, jacobian_transpose_torques, StaticBalance, Push, center_of_mass   balance
     MotionTracker, TrackingResult                             tracking motion capture
-    SimbiconController, Gait, load_gait, gait_names, run_walk, WalkResult, Push, BipedMap
+    SimbiconController, Gait, load_gait, gait_names, run_walk, WalkResult, BipedMap
                                                               SIMBICON walking
     Flat, Slope, Heightfield (terrain)                        ground to walk on
 """
@@ -17,7 +17,7 @@ from .balance import (HandOfGod, Push, StaticBalance, center_of_mass, chain_to_r
                       jacobian_transpose_torques)
 from .pd import PDController, apply_joint_torques, pd_torques, targets_from_quats
 from .tracking import MotionTracker, TrackingResult
-from .simbicon import (BipedMap, Gait, GaitState, Push, SimbiconController, WalkResult,
+from .simbicon import (BipedMap, Gait, GaitState, SimbiconController, WalkResult,
                        gait_names, load_gait, run_walk)
 from .terrain import Flat, Heightfield, Slope, Terrain
 from .skeleton import CharacterModel, Skeleton, games105_character_path, load_character_model
@@ -27,6 +27,6 @@ __all__ = ["Skeleton", "CharacterModel", "load_character_model", "games105_chara
            "GAMES105_BOX_SCALES", "Pose", "set_pose", "get_pose", "joint_targets",
            "rest_alignment", "PDController", "pd_torques", "apply_joint_torques",
            "targets_from_quats", "HandOfGod", "StaticBalance", "center_of_mass",
-           "chain_to_root", "jacobian_transpose_torques", "MotionTracker", "TrackingResult",
+           "chain_to_root", "jacobian_transpose_torques", "Push", "MotionTracker", "TrackingResult",
            "SimbiconController", "Gait", "GaitState", "load_gait", "gait_names", "run_walk",
-           "WalkResult", "Push", "BipedMap", "Terrain", "Flat", "Slope", "Heightfield"]
+           "WalkResult", "BipedMap", "Terrain", "Flat", "Slope", "Heightfield"]

@@ -16,22 +16,30 @@ two states repeat mirrored. In every state:
   coronal plane (hip abduction), with d the horizontal offset of the COM from the stance
   ankle and v the COM velocity, both in the heading frame.
 
-The torso and stance-hip part has two forms (``hip_control``):
+The torso and stance-hip part has three forms (``hip_control``):
 
-- 'implicit' (default): the stance hip is an implicit servo whose target is the joint
-  rotation that would put the pelvis at its desired world orientation given the stance
-  thigh's current orientation, with a target rate that makes its damping act on the
-  pelvis's world angular velocity; the swing hip is an implicit servo toward the desired
-  world thigh orientation expressed in the current pelvis frame. Solved with the joints and
-  contacts in one step, the stance-hip servo absorbs the swing hip's reaction on the pelvis
-  exactly as ``-tau_swing`` does, and it is stable at any step.
+- 'implicit' (default): the stance hip is an implicit servo (solved in the step with the
+  joints and contacts, stable at any step) whose target is the joint rotation that would
+  put the pelvis at its desired world orientation given the stance thigh's current
+  orientation, with a target rate that makes its damping act on the pelvis's world angular
+  velocity. Its torque is thus ``tau_stance = -tau_torso``, the torso's PD torque taken at
+  the end of the step; the swing hip's reaction on the pelvis is not cancelled in advance
+  but rejected by that stiff servo. The swing hip is an implicit servo toward the desired
+  world thigh orientation expressed in the current pelvis frame.
+- 'rule': the same, plus the balance rule's second term fed forward: the stance hip also
+  carries ``-tau_swing``, the torque the swing hip exerted on its thigh in the last physics
+  step (``world.joint_torque``), held through the control period. Then ``tau_stance =
+  -tau_torso - tau_swing`` literally, with ``tau_torso`` implicit and ``tau_swing`` one
+  physics step old. It walks as well on flat ground and takes larger forward pushes, but
+  the shipped gaits were tuned for 'implicit' and it is weaker on the 5 degree descent
+  (bench/bench_walk.py has the figures of both).
 - 'explicit': the paper's torques, ``tau_torso`` and ``tau_swing`` from world-frame PD
   laws on the pelvis and swing thigh, ``tau_stance = -tau_torso - tau_swing``, applied as
   joint torques held through the control period. The PD laws are evaluated at the end of
-  the period against the composite inertia of the bodies they turn (stable PD, backward
-  Euler for one rigid body) so they do not diverge at 1/60 s; being explicit they still
-  see neither the contacts nor the rest of the body, and walk less well (see the issue
-  note for the comparison).
+  the period against the inertia of the bodies they turn (stable PD, backward Euler for
+  one rigid body); being explicit they see neither the contacts nor the rest of the body.
+  With the shipped gaits' gains it falls within 2.5 s at every step tried (1/480 to 1/20
+  s): kept to compare, not to walk.
 
 Speed and turning are parameters: with a target speed set (``Gait.speed``) a step-to-step
 integral regulator moves the swing hip's flexion by ``speed_gain`` rad per m/s of error
@@ -61,10 +69,10 @@ from ..errors import ModelError
 from ..model.validate import positive
 from . import _quat as Q
 from .balance import center_of_mass
-from .pd import targets_from_quats
+from .pd import apply_joint_torques, targets_from_quats
 
 __all__ = ["GaitState", "Gait", "load_gait", "gait_names", "BipedMap", "SimbiconController",
-           "WalkResult", "run_walk", "Push"]
+           "WalkResult", "run_walk"]
 
 LEFT, RIGHT = 0, 1
 _REGULATOR_START = 4        # steps walked before the speed regulator acts
@@ -389,15 +397,6 @@ def _axis_quat(axis, angle):
 # the controller
 # ----------------------------------------------------------------------------------------
 
-@dataclass
-class Push:
-    """A force (N, world frame) on ``body`` from ``start`` for ``duration`` s (at its COM)."""
-    force: tuple
-    start: float
-    duration: float = 0.2
-    body: str = "lowerback_torso"
-
-
 class SimbiconController:
     """SIMBICON for a biped ragdoll in ``world`` (see the module docs).
 
@@ -405,8 +404,9 @@ class SimbiconController:
     ragdoll : the Ragdoll of the world's model (a floating root).
     gait : a Gait, a shipped gait name or a JSON path (``load_gait``).
     control_dt : the control period (s), a whole number of physics steps.
-    hip_control : 'implicit' (stance-hip servo toward the pelvis's desired orientation) or
-        'explicit' (the paper's torques ``tau_stance = -tau_torso - tau_swing``).
+    hip_control : 'implicit' (stance-hip servo toward the pelvis's desired orientation),
+        'rule' (that servo plus ``-tau_swing`` fed forward) or 'explicit' (the paper's
+        torques ``tau_stance = -tau_torso - tau_swing``); see the module docs.
     biped : a BipedMap (default: the course character's joint names).
     terrain : the Terrain under the character (heights above the ground for the fall
         check, the slope under the stance foot for the gait's slope terms; default flat
@@ -437,8 +437,8 @@ class SimbiconController:
             self.gait = self.gait.with_(
                 speed=self.gait.speed if speed is None else float(speed),
                 turn_rate=self.gait.turn_rate if turn_rate is None else float(turn_rate))
-        if hip_control not in ("implicit", "explicit"):
-            raise ModelError(f"SimbiconController: hip_control must be 'implicit' or "
+        if hip_control not in ("implicit", "rule", "explicit"):
+            raise ModelError(f"SimbiconController: hip_control must be 'implicit', 'rule' or "
                              f"'explicit', got {hip_control!r}")
         self.hip_control = hip_control
         positive(control_dt, "SimbiconController", "control_dt")
@@ -572,11 +572,12 @@ class SimbiconController:
         self.slope = 0.0
         self._stand = self.standing_pose()
         self._contacts = None
+        self._last_swing = None
         self._apply_gains()
 
     _SNAP_FIELDS = ("state", "stance", "phase_time", "time", "heading", "speed_offset",
                     "speed_integral",
-                    "fallen", "fall_reason", "_step_start")
+                    "fallen", "fall_reason", "_step_start", "_last_swing")
 
     def snapshot(self):
         """The world's state and the controller's (FSM, heading, speed regulator, foot
@@ -710,7 +711,7 @@ class SimbiconController:
             kp[k], kd[k] = self._gains(g)
             lim[k] = self.gait.max_torque[g]
         st, sw = self.hip[self.stance], self.hip[1 - self.stance]
-        if self.hip_control == "implicit":
+        if self.hip_control in ("implicit", "rule"):
             kp[st], kd[st] = self._gains("torso")
             lim[st] = self.gait.max_torque["torso"]
         else:
@@ -850,7 +851,7 @@ class SimbiconController:
         rates = np.zeros((self.model.njoint, 3))
         hs, hw = self.hip[stance], self.hip[swing]
         th_st, th_sw = self.thigh[stance], self.thigh[swing]
-        if self.hip_control == "implicit":
+        if self.hip_control in ("implicit", "rule"):
             # stance hip: the rotation that puts the pelvis at R_pd given the stance thigh
             R[hs] = _qm(_qc(R_pd), self._seg_rot(th_st))
             R[hw] = _qm(_qc(R_p), R_thd)
@@ -859,6 +860,14 @@ class SimbiconController:
             # target rates: damping on the pelvis's and the thigh's world angular velocities
             rates[hs] = _qr(_qc(fa_st), w.body_angvel[th_st] - w_yaw)
             rates[hw] = _qr(_qc(fa_sw), w_yaw - w.body_angvel[self.pelvis])
+            if self.hip_control == "rule" and self._last_swing == swing:
+                # -tau_swing on the stance hip: what the swing hip did to its thigh in the
+                # last physics step (not across a stance switch, when it was the stance hip)
+                tau = np.zeros((self.model.njoint, 3))
+                tau[hs] = -np.asarray(w.joint_torque[hw])
+                apply_joint_torques(w, tau)
+                self.last_tau = {"swing": -tau[hs], "stance_feedforward": tau[hs]}
+            self._last_swing = swing
         else:
             R[hs] = _qm(_qc(R_p), self._seg_rot(th_st))   # unused: servo off
             R[hw] = _qm(_qc(R_p), R_thd)
@@ -882,19 +891,17 @@ class SimbiconController:
             tau = np.zeros((self.model.njoint, 3))
             tau[hw] = tau_swing
             tau[hs] = tau_stance
-            from .pd import apply_joint_torques
             apply_joint_torques(w, tau)
             self.last_tau = {"torso": tau_torso, "swing": tau_swing, "stance": tau_stance}
         self._set_targets(R, rates)
 
     def step(self, pushes=()):
-        """One control period: targets, ``world.step(substeps)`` (with any active pushes),
+        """One control period: targets, ``world.step(substeps)`` (with the share of any
+        :class:`~tumble.character.balance.Push` whose window, in world time, overlaps it),
         then the state machine and the fall check."""
         self.control()
-        t = self.time
         for p in pushes:
-            if p.start <= t + 1e-9 < p.start + p.duration:
-                self.world.apply_force(p.body, np.asarray(p.force, float))
+            p.apply(self.world, self.substeps)
         self.world.step(self.substeps)
         self.time += self.control_dt
         self.heading += self.gait.turn_rate * self.control_dt
@@ -1008,7 +1015,8 @@ class WalkResult:
         (the feet's lateral offset left out); step_time :
         mean s between strikes; steps : number of strikes.
     wall_time : s of computation; com : (F, 3) COM per control period; strikes : the
-    controller's foot strikes; poses : (F, nbody, 7) positions and quaternions if recorded.
+    controller's foot strikes; pelvis_min_height : lowest pelvis COM height above the
+    terrain (m).
     """
     time: float
     fallen: bool
@@ -1022,7 +1030,6 @@ class WalkResult:
     wall_time: float
     com: np.ndarray
     strikes: list
-    poses: np.ndarray = None
     pelvis_min_height: float = math.nan
 
     def summary(self):
@@ -1034,14 +1041,15 @@ class WalkResult:
 
 
 def run_walk(controller, duration, *, pushes=(), settle=2.0, stop_distance=None,
-             record=False, start_speed=0.0, place=True, position=(0.0, 0.0), yaw=0.0):
+             on_step=None, start_speed=0.0, place=True, position=(0.0, 0.0), yaw=0.0):
     """Walk ``controller`` for ``duration`` s (or until it falls or has gone
     ``stop_distance`` m) and measure it; returns a :class:`WalkResult`.
 
-    pushes : :class:`Push` list (times from the start of the run). settle : s excluded from
-    the speed and step figures (the start from standing). record : keep body poses per
-    control period (for rendering). place : put the character standing first (with
-    ``start_speed``, at ``position`` (x, z) facing ``yaw``).
+    pushes : :class:`~tumble.character.balance.Push` list (start times in world time,
+    ``world.time``). settle : s excluded from the speed and step figures (the start from
+    standing). on_step : called as ``on_step(controller)`` after every control period (e.g.
+    to capture a frame of a ``world.record()`` Recorder). place : put the character
+    standing first (with ``start_speed``, at ``position`` (x, z) facing ``yaw``).
     """
     import time as _time
     c = controller
@@ -1050,7 +1058,7 @@ def run_walk(controller, duration, *, pushes=(), settle=2.0, stop_distance=None,
         c.place(speed=start_speed, position=position, yaw=yaw)
     com0, _ = center_of_mass(w)
     n = int(round(duration / c.control_dt))
-    coms, poses = [], []
+    coms = []
     t0 = _time.perf_counter()
     pel_min = math.inf
     up = c.up
@@ -1060,8 +1068,8 @@ def run_walk(controller, duration, *, pushes=(), settle=2.0, stop_distance=None,
         coms.append(com)
         p = w.body_pos[c.pelvis]
         pel_min = min(pel_min, float(p @ up) - c.ground_height(p))
-        if record:
-            poses.append(np.hstack([w.body_pos, w.body_quat]))
+        if on_step is not None:
+            on_step(c)
         if c.fallen:
             break
         if stop_distance is not None:
@@ -1105,4 +1113,4 @@ def run_walk(controller, duration, *, pushes=(), settle=2.0, stop_distance=None,
                       forward_distance=float(disp @ fwd0), speed=float(speed),
                       step_length=step_len, step_time=step_time, steps=len(c.strikes),
                       wall_time=wall, com=coms, strikes=list(c.strikes),
-                      poses=np.array(poses) if record else None, pelvis_min_height=pel_min)
+                      pelvis_min_height=pel_min)
