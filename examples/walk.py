@@ -72,6 +72,7 @@ def main():
     p.add_argument("--push-at", type=float, default=8.0, help="push start, s")
     p.add_argument("--push-time", type=float, default=0.2, help="push duration, s")
     p.add_argument("--gif", default=None, help="record and export to this .gif or .mp4")
+    p.add_argument("--azimuth", type=float, default=25.0, help="camera azimuth of --gif, deg")
     args = p.parse_args()
     if args.list:
         for n in gait_names():
@@ -92,7 +93,7 @@ def main():
     recorder = world.record(capture_now=False) if args.gif else None
     start = (0.0, -2.0) if args.terrain == "hill" else (0.0, 0.0)
     r = run_walk(ctrl, args.duration, pushes=pushes, position=start,
-                 on_step=(lambda c: recorder.capture()) if recorder else None)
+                 on_step=None if recorder is None else (lambda c: recorder.capture()))
     print(r.summary())
     print(f"time {r.time:.1f} s, distance {r.distance:.2f} m (forward {r.forward_distance:.2f} "
           f"m), speed {r.speed:.3f} m/s, step length {r.step_length:.3f} m, step time "
@@ -100,8 +101,12 @@ def main():
     print(f"wall-clock {r.wall_time:.1f} s: {r.wall_time / r.time:.3f} s per simulated s")
     if recorder is not None:
         from tumble.viewer import export_video
+        from tumble.viewer.render import Camera
+        # from the character's left and a little ahead, following the pelvis
+        camera = Camera(follow=world.model.body_names[ctrl.pelvis], distance=3.6,
+                        azimuth=args.azimuth, elevation=10.0, offset=(0.0, -0.2, 0.0))
         n = export_video(recorder.recording(), args.gif, fps=20, size=(480, 270),
-                         follow=world.model.body_names[ctrl.pelvis])
+                         camera=camera)
         print(f"{n} frames written to {args.gif}")
 
 
