@@ -9,11 +9,12 @@ What is checked, and how:
   thigh at its desired one; the balance law ``theta = theta0 + c_d d + c_v v`` against d, v
   computed here from the bodies;
 - terrain heights and normals against ray casts of the built model (to 1e-9);
-- walking outcomes with thresholds (figures of examples/walk.py in the report): 60 s on
-  flat ground per shipped style with no fall (pelvis above 0.55 m, nothing but the feet on
-  the ground: the controller's own check, restated here on the result), speed and step
-  length in a band; pushes of 0.2 s to the chest in four directions; 5 degree slopes up and
-  down; a heightfield; speed and turning parameters. Control and physics step 1/60 s.
+- walking outcomes with thresholds (the longer measurements, 50 m per style and the push
+  force search, are bench/bench_walk.py's): 60 s on flat ground per shipped style with no
+  fall (pelvis above 0.55 m, nothing but the feet on the ground: the controller's own
+  check, restated here on the result), speed and step length in a band; pushes of 0.2 s
+  to the chest in four directions; 5 degree slopes up and down; a heightfield; speed and
+  turning parameters; the 'rule' form of the stance hip. Control and physics step 1/60 s.
 """
 import json
 import math
@@ -271,7 +272,8 @@ def _no_fall(r):
 
 
 # (gait, speed band m/s, step length band m, least distance in 60 s), measured at control =
-# physics step 1/60 s (examples/walk.py: walk 0.56 m/s, 0.254 m; fast 1.37 m/s, 0.435 m)
+# physics step 1/60 s (bench/bench_walk.py, 50 m: walk 0.567 m/s, 0.256 m; fast 1.369 m/s,
+# 0.434 m)
 STYLES = [("walk", (0.45, 0.7), (0.2, 0.32), 27.0),
           ("fast", (1.15, 1.6), (0.36, 0.52), 50.0)]
 
