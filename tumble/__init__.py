@@ -10,6 +10,7 @@ The public API (see the README and DESIGN notes):
     load_character_model  ragdolls from skeletons (tumble.character)
     set_pose, get_pose, joint_targets, Pose   motion frames <-> world poses
     PDController, HandOfGod, StaticBalance, MotionTracker   character control
+    SimbiconController, load_gait, run_walk   SIMBICON walking (tumble.character.simbicon)
     Recorder, Recording   record a run, save/load it (.npz); tumble.viewer views and exports
     ModelError, StateError, SimulationError, TumbleError
 """
@@ -21,9 +22,10 @@ from .errors import ModelError, SimulationError, StateError, TumbleError
 from .io import Motion, load_bvh, load_bvh_string, load_mjcf, load_urdf, save_bvh
 from .model import Model, ModelBuilder
 from .world import State, World
-from .character import (HandOfGod, MotionTracker, PDController, Pose, Ragdoll, Skeleton,
-                        StaticBalance, build_ragdoll, games105_ragdoll, get_pose,
-                        joint_targets, load_character_model, ragdoll_from_motion, set_pose)
+from .character import (HandOfGod, MotionTracker, PDController, Pose, Ragdoll,
+                        SimbiconController, Skeleton, StaticBalance, build_ragdoll,
+                        games105_ragdoll, get_pose, joint_targets, load_character_model,
+                        load_gait, ragdoll_from_motion, run_walk, set_pose)
 from .viewer.recorder import Recorder, Recording
 
 __version__ = "0.1.0"
@@ -35,5 +37,5 @@ __all__ = ["ModelBuilder", "Model", "World", "State", "Motion", "load_bvh", "loa
            "Skeleton", "Ragdoll", "build_ragdoll", "ragdoll_from_motion", "games105_ragdoll",
            "load_character_model", "Pose", "set_pose", "get_pose", "joint_targets",
            "PDController", "HandOfGod", "StaticBalance", "MotionTracker", "Recorder",
-           "Recording",
+           "Recording", "SimbiconController", "load_gait", "run_walk",
            "TumbleError", "ModelError", "StateError", "SimulationError", "__version__"]

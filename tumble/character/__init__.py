@@ -6,6 +6,9 @@
     PDController, pd_torques, apply_joint_torques             joint PD (in-step or NumPy)
     HandOfGod, jacobian_transpose_torques, StaticBalance, Push, center_of_mass   balance
     MotionTracker, TrackingResult                             tracking motion capture
+    SimbiconController, Gait, load_gait, gait_names, run_walk, WalkResult, BipedMap
+                                                              SIMBICON walking
+    Flat, Slope, Heightfield (terrain)                        ground to walk on
 """
 from .pose import Pose, get_pose, joint_targets, rest_alignment, set_pose
 from .ragdoll import (GAMES105_BOX_SCALES, Ragdoll, build_ragdoll, games105_ragdoll,
@@ -14,11 +17,16 @@ from .balance import (HandOfGod, Push, StaticBalance, center_of_mass, chain_to_r
                       jacobian_transpose_torques)
 from .pd import PDController, apply_joint_torques, pd_torques, targets_from_quats
 from .tracking import MotionTracker, TrackingResult
+from .simbicon import (BipedMap, Gait, GaitState, SimbiconController, WalkResult,
+                       gait_names, load_gait, run_walk)
+from .terrain import Flat, Heightfield, Slope, Terrain
 from .skeleton import CharacterModel, Skeleton, games105_character_path, load_character_model
 
 __all__ = ["Skeleton", "CharacterModel", "load_character_model", "games105_character_path",
            "Ragdoll", "build_ragdoll", "ragdoll_from_motion", "games105_ragdoll",
            "GAMES105_BOX_SCALES", "Pose", "set_pose", "get_pose", "joint_targets",
            "rest_alignment", "PDController", "pd_torques", "apply_joint_torques",
-           "targets_from_quats", "HandOfGod", "Push", "StaticBalance", "center_of_mass",
-           "chain_to_root", "jacobian_transpose_torques", "MotionTracker", "TrackingResult"]
+           "targets_from_quats", "HandOfGod", "StaticBalance", "center_of_mass",
+           "chain_to_root", "jacobian_transpose_torques", "Push", "MotionTracker", "TrackingResult",
+           "SimbiconController", "Gait", "GaitState", "load_gait", "gait_names", "run_walk",
+           "WalkResult", "BipedMap", "Terrain", "Flat", "Slope", "Heightfield"]

@@ -173,6 +173,15 @@ def _add_joints(b, skeleton, body_joints, root, types, axes, kwargs, where):
         b.add_joint(n, jtype, names[p], n, anchor=rest[j], axis=axis, axis2=axis2, **extra)
 
 
+def _add_terrain(b, terrain, friction, up, where):
+    """Add a terrain's static geoms (tumble.character.terrain) to the builder."""
+    from .terrain import Terrain
+    if not isinstance(terrain, Terrain):
+        raise ModelError(f"{where}: terrain must be a tumble.character.terrain Terrain (Flat, "
+                         f"Slope, Heightfield), got {type(terrain).__name__}")
+    terrain.add_to(b, friction=friction, up=up)
+
+
 def _check_root(root, where):
     if root not in ROOT_MODES:
         raise ModelError(f"{where}: root must be one of {list(ROOT_MODES)}, got {root!r}")
@@ -246,7 +255,7 @@ def build_ragdoll(skeleton, *, shape="capsule", width=None, width_ratio=0.3, den
                   total_mass=None, joint_types=None, joint_axes=None, joint_kwargs=None,
                   root="floating", ground=True, friction=1.0, restitution=0.0,
                   collide_siblings=False, place_on_ground=False, gravity=9.81,
-                  timestep=1.0 / 240.0, world_options=None):
+                  timestep=1.0 / 240.0, world_options=None, terrain=None):
     """A ragdoll with one body per bone of ``skeleton``, sized from the bones.
 
     skeleton : :class:`~tumble.character.Skeleton`; the model is built in its rest pose.
@@ -272,6 +281,8 @@ def build_ragdoll(skeleton, *, shape="capsule", width=None, width_ratio=0.3, den
     gravity : m/s^2 along ``-skeleton.up``.
     timestep : the model's default step, s.
     world_options : recommended ``World`` keywords stored on the result.
+    terrain : a :class:`~tumble.character.terrain.Terrain` (slope, heightfield; Y up) put in
+        place of the ground plane, with ``friction``; ``ground`` is then ignored.
 
     Returns a :class:`Ragdoll`. Raises ModelError naming the joint for unknown joint names
     in any of the dicts, a hinge without an axis, or an option out of range.
@@ -331,7 +342,9 @@ def build_ragdoll(skeleton, *, shape="capsule", width=None, width_ratio=0.3, den
             for a in range(len(kids)):
                 for c in range(a + 1, len(kids)):
                     b.exclude_collision(kids[a], kids[c])
-    if ground:
+    if terrain is not None:
+        _add_terrain(b, terrain, friction, skeleton.up, where)
+    elif ground:
         b.add_geom(None, "plane", normal=skeleton.up, friction=friction,
                    restitution=restitution, name="ground")
     return Ragdoll(b.build(), skeleton, body_joints, root, world_options or {})
@@ -388,7 +401,8 @@ def _games105_joint_type(name):
     return "ball", None
 
 
-def games105_ragdoll(root="floating", *, character=None, ground=True, joint_kwargs=None):
+def games105_ragdoll(root="floating", *, character=None, ground=True, joint_kwargs=None,
+                     terrain=None):
     """The GAMES-105 course's reference ragdoll, as the course builds it on ODE.
 
     root : 'floating' (free root, default) or 'pinned' (ball joint to the world at
@@ -397,6 +411,8 @@ def games105_ragdoll(root="floating", *, character=None, ground=True, joint_kwar
         for the copy shipped with tumble.
     ground : add the ground plane y = 0 (friction 1.5, no bounce).
     joint_kwargs : {joint name: dict of extra ``add_joint`` keywords}, e.g. PD gains.
+    terrain : a :class:`~tumble.character.terrain.Terrain` (a slope, a heightfield) put in
+        place of the flat ground (friction 1.5 like the ground); ``ground`` is then ignored.
 
     From the course facts (README of the data): one body per joint i < 20 centred at
     ``body_pos[i]`` (toes raised 0.01 m in y), axis-aligned in the T-pose; mass and inertia
@@ -452,7 +468,9 @@ def games105_ragdoll(root="floating", *, character=None, ground=True, joint_kwar
         if p >= len(body_joints):
             raise ModelError(f"{where}: joint '{n}' has a parent without a body")
     _add_joints(b, skeleton, body_joints, root, types, axes, kwargs, where)
-    if ground:
+    if terrain is not None:
+        _add_terrain(b, terrain, _GAMES105_FRICTION, skeleton.up, where)
+    elif ground:
         b.add_geom(None, "plane", normal=(0.0, 1.0, 0.0), friction=_GAMES105_FRICTION,
                    restitution=0.0, name="ground")
     options = dict(dt=_GAMES105_DT, contact_erp=0.9, contact_cfm=0.001)
