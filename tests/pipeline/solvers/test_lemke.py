@@ -9,7 +9,7 @@ from scipy.optimize import linprog
 
 from tumble.pipeline.solvers.lemke import (LEMKE_BAD_INPUT, LEMKE_INACCURATE,
                                            LEMKE_MAX_ITER, LEMKE_RAY, LEMKE_SOLVED,
-                                           lcp_residual, lemke, lemke_solve)
+                                           lcp_residual, lemke, lemke_solve, lemke_warm)
 
 FAST = settings(max_examples=100, deadline=None)
 
@@ -472,3 +472,62 @@ def test_lemke_solve_default_cap_and_known_answer():
     np.testing.assert_allclose(z, [1.0, 0.0, 3.0, 0.0], rtol=0, atol=1e-15)
     z, status = lemke_solve(np.eye(4), q, max_iter=1)
     assert status == LEMKE_MAX_ITER
+
+
+# ------------------------------------------------------------- warm start (lemke_warm)
+
+def run_warm(M, q, guess):
+    z = np.full(len(q), 7.0)
+    status, pivots = lemke_warm(np.ascontiguousarray(M), np.ascontiguousarray(q),
+                                np.asarray(guess, np.bool_), 10 * (len(q) + 1), 1e-12, z)
+    return z, status, pivots
+
+
+@FAST
+@given(seed=st.integers(0, 2**32 - 1), ncontact=st.integers(1, 6), flips=st.integers(0, 3))
+def test_warm_guess_right_or_wrong_gives_a_solution(seed, ncontact, flips):
+    """The right active set is taken with no pivots and gives a solution; a guess with
+    some entries flipped still ends in a verified solution (Lemke's path runs)."""
+    rng = np.random.default_rng(seed)
+    M, q = contact_lcp(rng, ncontact, 2)
+    z, status, _ = run(M, q)
+    if status != LEMKE_SOLVED:
+        return                                   # a hard case lemke itself refuses
+    active = z > 0.0
+    zw, status_w, pivots_w = run_warm(M, q, active)
+    assert status_w == LEMKE_SOLVED
+    assert_lcp_solution(M, q, zw)
+    block = M[np.ix_(active, active)]
+    if np.all(q >= 0.0):
+        assert not np.any(zw)
+    elif active.any() and np.linalg.cond(block) < 1e8:
+        # a nonsingular block of the positive z's is that basis: no pivoting (a degenerate
+        # solution, whose basis also holds some z = 0, makes the block singular instead)
+        assert pivots_w == 0
+    wrong = active.copy()
+    for i in rng.choice(len(q), size=min(flips, len(q)), replace=False):
+        wrong[i] = not wrong[i]
+    zw2, status_w2, _ = run_warm(M, q, wrong)
+    assert status_w2 == LEMKE_SOLVED
+    assert_lcp_solution(M, q, zw2)
+
+
+def test_warm_guess_checks_its_length():
+    z = np.zeros(2)
+    assert lemke_warm(np.eye(2), -np.ones(2), np.ones(3, np.bool_), 10, 1e-12, z)[0] == \
+        LEMKE_BAD_INPUT
+
+
+def test_box_rests_with_warm_started_solves():
+    """A box resting on the ground keeps its contacts, so each exact solve after the first
+    starts from last step's active set; the box must still come to an exact rest."""
+    import tumble
+    b = tumble.ModelBuilder()
+    b.add_geom(None, "plane")
+    box = b.add_body("box", pos=(0, 0, 0.1), mass=1.0, inertia=(0.01, 0.01, 0.01))
+    b.add_geom(box, "box", size=(0.1, 0.1, 0.1))
+    w = tumble.World(b.build(), dt=1 / 60)
+    w.step(120)
+    assert abs(w.body_pos[0][2] - 0.1) < 1e-3
+    assert np.abs(w.body_vel[0]).max() < 1e-9
+    assert w.lcp_fallbacks == 0                  # every solve exact (no PGS stand-in)

@@ -85,6 +85,7 @@ STAB_TOL = 1e-4
 HARRIS_TOL = 1e-9
 # Largest accepted relative natural residual (see lcp_residual).
 VERIFY_TOL = 1e-8
+WARM_TOL = 1e-12       # a guessed basis is kept only if it solves to round-off
 # pivot_tol of the one retry after a ray or a failed verification.
 RETRY_PIVOT_TOL = 1e-6
 
@@ -296,6 +297,17 @@ def _solve_final_basis(mt, qn, basis, n, zn, work, idx):
 
 
 @noalloc
+def _try_guess(mt, qn, guess, n, basis, zn, work, idx, w):
+    """Solve the basis where the ``z`` marked in ``guess`` are basic (the others at zero)
+    into ``zn``; True if that solves the normalised LCP to ``WARM_TOL``."""
+    for i in range(n):
+        basis[i] = n + i if guess[i] else i
+    if not _solve_final_basis(mt, qn, basis, n, zn, work, idx):
+        return False
+    return _residual_normalised(mt, qn, zn, n, w) <= WARM_TOL
+
+
+@noalloc
 def _path(mt, qn, r0, n, max_iter, pivot_tol, bt, x, basis, col, cand, zn, work):
     """Follow Lemke's path for the normalised problem (``mt = Mn^T``, ``qn``) starting
     with ``z0`` entering in row ``r0``; on success ``zn`` holds the verified normalised
@@ -354,6 +366,7 @@ def _path(mt, qn, r0, n, max_iter, pivot_tol, bt, x, basis, col, cand, zn, work)
 @njit(cache=True)
 def lemke(M, q, max_iter, pivot_tol, z_out):
     """Solve the LCP ``(M, q)`` by Lemke's method with covering vector ``d = ones``.
+    (``lemke_warm`` first tries a guessed basis.)
 
     M (n, n) float64, q (n,) float64; z_out (n,) float64 receives ``z`` (units of
     ``q / M``), all zeros unless the status is LEMKE_SOLVED. ``max_iter`` caps the
@@ -369,6 +382,24 @@ def lemke(M, q, max_iter, pivot_tol, z_out):
     pivots. Allocates its (n, n) work arrays once at the start; O(n^2) per pivot plus
     one O(n^3 / 3) solve per attempt.
     """
+    return _lemke(M, q, max_iter, pivot_tol, z_out, np.zeros(0, np.bool_))
+
+
+@njit(cache=True)
+def lemke_warm(M, q, guess, max_iter, pivot_tol, z_out):
+    """``lemke`` started from a guess: ``guess`` (n,) bool marks the ``z`` expected to be
+    positive (say, last step's active set). The guess is solved directly
+    (``M_SS z_S = -q_S``) and kept if it solves the LCP to ``WARM_TOL``, which only the
+    right complementary basis does (then z is exact to round-off); else Lemke's path runs
+    as in ``lemke``. Returns (status, pivots); a guess kept costs 0 pivots."""
+    if guess.shape[0] != q.shape[0]:
+        return LEMKE_BAD_INPUT, 0
+    return _lemke(M, q, max_iter, pivot_tol, z_out, guess)
+
+
+@njit(cache=True)
+def _lemke(M, q, max_iter, pivot_tol, z_out, guess):
+    """``lemke``, after trying the basis ``guess`` when it has n entries."""
     n = q.shape[0]
     if M.shape[0] != n or M.shape[1] != n or z_out.shape[0] != n:
         return LEMKE_BAD_INPUT, 0
@@ -413,8 +444,11 @@ def lemke(M, q, max_iter, pivot_tol, z_out):
     zn = np.empty(n)
     work = np.empty((n, n + 1))           # for the final direct solve
 
-    status, pivots = _path(mt, qn, r0, n, max_iter, pivot_tol, bt, x, basis, col, cand,
-                           zn, work)
+    if guess.shape[0] == n and _try_guess(mt, qn, guess, n, basis, zn, work, cand, x):
+        status, pivots = LEMKE_SOLVED, 0
+    else:
+        status, pivots = _path(mt, qn, r0, n, max_iter, pivot_tol, bt, x, basis, col, cand,
+                               zn, work)
     if (status == LEMKE_RAY or status == LEMKE_INACCURATE) and pivot_tol < RETRY_PIVOT_TOL \
             and pivots < max_iter:
         # a nearly singular basis (tiny regularisation of redundant rows) can derail the

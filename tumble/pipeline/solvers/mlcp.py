@@ -25,7 +25,7 @@ from ..._jit import noalloc
 from ..joints.common import INF
 from .common import active_rows, apply_impulses, make_rows_nb
 from .direct import assemble, cholesky_apply, cholesky_factor, row_dot, row_responses
-from .lemke import LEMKE_SOLVED, lemke
+from .lemke import LEMKE_SOLVED, lemke_warm
 from .tree import tree_factor, tree_inverse_mass_rows, tree_plan, tree_solve
 
 KIND_BILATERAL, KIND_UNILATERAL, KIND_FRICTION, KIND_BOX = 0, 1, 2, 3
@@ -156,7 +156,9 @@ def mixed_lcp(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, max_pivot
                     M[a, c] += rows.mu[r]
                     break
     z = np.zeros(nz)
-    status, _ = lemke(M, q, max_pivots if max_pivots > 0 else 10 * (nz + 1), 1e-12, z)
+    guess = _active_guess(rows, idx, oth, kind, var_row, var_sign, group_of, nz, impulse)
+    status, _ = lemke_warm(M, q, guess, max_pivots if max_pivots > 0 else 10 * (nz + 1),
+                           1e-12, z)
     if status != LEMKE_SOLVED:
         return status
     p = np.zeros(n)
@@ -178,6 +180,34 @@ def mixed_lcp(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, max_pivot
         impulse[idx[i]] = p[i]
     apply_impulses(rows, idx, n, dv, p, vel, angvel)
     return LEMKE_SOLVED
+
+
+@njit(cache=True)
+def _active_guess(rows, idx, oth, kind, var_row, var_sign, group_of, nz, impulse):
+    """Which LCP variables the warm-start impulses (last step's, carried by each contact
+    and joint row) say are positive: a pushing normal or limit, the signed half of a
+    friction or box row that carries impulse, and the slack of a group at its bound (a
+    sliding contact, a saturated motor). While the contacts keep their state this is
+    the answer, and Lemke's path is skipped (see ``lemke_warm``)."""
+    guess = np.zeros(nz, np.bool_)
+    load = np.zeros(nz)                  # per slack: the impulse its group carries
+    for a in range(nz):
+        i = var_row[a]
+        r = idx[oth[i]]
+        if var_sign[a] != 0.0:
+            guess[a] = var_sign[a] * impulse[r] > 0.0
+            if kind[oth[i]] != KIND_UNILATERAL and var_sign[a] > 0.0:
+                load[group_of[i]] += abs(impulse[r])
+    for a in range(nz):
+        if var_sign[a] != 0.0:
+            continue
+        r = idx[oth[var_row[a]]]
+        if kind[oth[var_row[a]]] == KIND_BOX:
+            bound = rows.hi[r]
+        else:
+            bound = rows.mu[r] * impulse[rows.parent[r]]
+        guess[a] = bound > 0.0 and load[a] >= bound * (1.0 - 1e-9)
+    return guess
 
 
 @njit(cache=True)
