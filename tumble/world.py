@@ -36,6 +36,11 @@ _STATE_FIELDS = {
 }
 
 
+# How check_drives' fields are named in errors (the user-facing name where it differs).
+_DRIVE_NAMES = {"motor_target": "joint_motor_target", "joint_applied": "joint torque",
+                "pd_kp": "joint_kp", "pd_kd": "joint_kd", "body_servo": "body servo gain"}
+
+
 @dataclass
 class Contacts:
     """Contacts of one step, as arrays over n contacts (see ``World.contacts_of``)."""
@@ -258,6 +263,9 @@ class World:
         if parallel is not None and not isinstance(parallel, (bool, np.bool_)):
             raise ModelError(f"world: parallel must be True, False or None, got {parallel!r}")
         self.parallel = self.nworld > 1 if parallel is None else bool(parallel)
+        self._ball_joints = np.array([t == "ball" for t in model.joint_type_names], np.bool_)
+        self._folded = np.flatnonzero(model.actuator_folded)
+        self._options_key = None
         nb, nw, nj = model.nbody, self.nworld, model.njoint
         self._state = pipeline_step.StateArrays(
             body_pos=np.zeros((nw, nb, 3)), body_quat=np.zeros((nw, nb, 4)),
@@ -594,49 +602,46 @@ class World:
     def _check_drives(self):
         """Refuse non-finite targets, negative gains; fold position actuators' controls."""
         s, m = self._state, self.model
-        for field, name in (("motor_target", "joint_motor_target"),
-                            ("pd_target_quat", "pd_target_quat"), ("pd_target_q", "pd_target_q"),
-                            ("pd_target_qd", "pd_target_qd"), ("joint_applied", "joint torque"),
-                            ("ctrl", "ctrl"), ("pd_kp", "joint_kp"), ("pd_kd", "joint_kd"),
-                            ("body_servo", "body servo gain"),
-                            ("body_target_pos", "body_target_pos"),
-                            ("body_target_quat", "body_target_quat"),
-                            ("body_target_vel", "body_target_vel"),
-                            ("body_target_angvel", "body_target_angvel")):
-            a = getattr(s, field)
-            bad = ~np.isfinite(a)
+        code, w, i = pipeline_step.check_drives(s, self._ball_joints)
+        if code != pipeline_step.DRIVE_OK:
+            where = (f"actuator '{m.actuator_names[i]}'" if code == 5 else
+                     f"body '{m.body_names[i]}'" if code in (8, 9, 10, 11, 12,
+                                                           pipeline_step.DRIVE_ZERO_BODY_QUAT)
+                     else f"joint '{m.joint_names[i]}'")
+            if self.nworld > 1:
+                where += f" in world {w}"
+            if code == pipeline_step.DRIVE_ZERO_BODY_QUAT:
+                raise StateError(f"{where}: body_target_quat is zero")
+            if code == pipeline_step.DRIVE_BAD_MAX:
+                raise StateError(f"{where}: max_torque must be > 0, got {s.pd_max[w, i]!r}")
+            if code == pipeline_step.DRIVE_ZERO_JOINT_QUAT:
+                raise StateError(f"{where}: pd_target_quat is zero")
+            field = pipeline_step.DRIVE_FIELDS[code]
             gain = field in ("pd_kp", "pd_kd", "body_servo")
-            if gain:
-                bad |= a < 0
-            if bad.any():
-                idx = np.argwhere(bad)[0]
-                what = (f"actuator '{m.actuator_names[idx[1]]}'" if field == "ctrl" else
-                        f"body '{m.body_names[idx[1]]}'" if field.startswith("body")
-                        else f"joint '{m.joint_names[idx[1]]}'")
-                raise StateError(f"{what}: {name} must be finite" + (" and >= 0" if gain else "")
-                                 + f", got {a[tuple(idx)]!r}")
-        tq_norm = np.linalg.norm(s.body_target_quat, axis=-1)
-        if np.any((tq_norm < 1e-12) & (s.body_servo[..., 2:].max(-1) > 0)):
-            b = int(np.argwhere((tq_norm < 1e-12) & (s.body_servo[..., 2:].max(-1) > 0))[0][1])
-            raise StateError(f"body '{m.body_names[b]}': body_target_quat is zero")
-        s.body_target_quat[:] /= np.where(tq_norm > 0, tq_norm, 1.0)[..., None]
-        if np.any(np.isnan(s.pd_max) | (s.pd_max <= 0)):
-            j = int(np.argwhere(np.isnan(s.pd_max) | (s.pd_max <= 0))[0][1])
-            raise StateError(f"joint '{m.joint_names[j]}': max_torque must be > 0")
-        quat_norm = np.linalg.norm(s.pd_target_quat, axis=-1)
-        ball = np.array([t == "ball" for t in m.joint_type_names], bool)
-        if np.any((quat_norm < 1e-12) & ball):
-            j = int(np.argwhere((quat_norm < 1e-12) & ball)[0][1])
-            raise StateError(f"joint '{m.joint_names[j]}': pd_target_quat is zero")
-        s.pd_target_quat[:] /= np.where(quat_norm > 0, quat_norm, 1.0)[..., None]
-        folded = np.flatnonzero(m.actuator_folded)
-        if folded.size:
+            raise StateError(f"{where}: {_DRIVE_NAMES.get(field, field)} must be finite"
+                             + (" and >= 0" if gain else "")
+                             + f", got {getattr(s, field)[w, i]!r}")
+        if self._folded.size:
+            folded = self._folded
             c = np.clip(s.ctrl[:, folded], m.actuator_ctrlrange[folded, 0],
                         m.actuator_ctrlrange[folded, 1])
             s.pd_target_q[:, m.actuator_joint[folded], 0] = c / m.actuator_gear[folded]
             s.pd_target_qd[:, m.actuator_joint[folded], 0] = 0.0
 
     def _options(self):
+        """The StepOptions of the current settings, rebuilt only when one has changed."""
+        key = (self.dt, self.gyroscopic, self.quat_integration, self.divergence_limit,
+               self.erp, self.cfm, self.solver, self.iterations, self.tolerance,
+               self.warm_start, self.projection, self.projection_tolerance, self.contact,
+               self.contact_erp, self.contact_cfm, self.slop, self.bounce_threshold,
+               self.penalty_stiffness, self.penalty_damping, self.slip_velocity,
+               self.contact_margin, self.pd, self.broadphase)
+        if key != self._options_key:
+            self._options_cached = self._make_options()
+            self._options_key = key
+        return self._options_cached
+
+    def _make_options(self):
         k, c = self.penalty_parameters()
         g = float(np.linalg.norm(self.model.gravity))
         v_slip = self.slip_velocity or max(g * self.dt, 1e-3)
@@ -796,6 +801,8 @@ class World:
         wsl = self._world_slice(world)
         n = int(self.model.joint_ndof[j])
         t = np.asarray(torque, float)
+        if t.ndim == 0 and n == 1:                 # a hinge or slider takes a plain number
+            t = t.reshape(1)
         if t.shape not in ((n,), (self.nworld, n)) or (t.shape != (n,) and world is not None):
             raise ModelError(f"apply_joint_torque on joint '{self.model.joint_names[j]}': "
                              f"torque must have shape ({n},), got {t.shape}")

@@ -190,3 +190,54 @@ def test_bad_gains_targets_and_actuators_are_refused():
         world.step()
     with pytest.raises(ModelError, match="pd must be one of"):
         world.pd = "magic"
+
+
+def ball_and_motor_world(nworld=1):
+    """A ball-jointed arm and a hinge with a motor actuator, hand of god on the arm."""
+    b = tumble.ModelBuilder()
+    arm = b.add_body("arm", pos=(0, 0, 0.5), mass=1.0, inertia=(0.1, 0.1, 0.02))
+    b.add_joint("shoulder", "ball", None, arm, anchor=(0, 0, 1), kp=10.0, kd=1.0)
+    wheel = b.add_body("wheel", pos=(1, 0, 1), mass=1.0, inertia=(0.1, 0.1, 0.1))
+    b.add_joint("axle", "hinge", None, wheel, anchor=(1, 0, 1), axis=(0, 1, 0))
+    b.add_actuator("drive", "axle")
+    return tumble.World(b.build(), nworld=nworld)
+
+
+@pytest.mark.parametrize("spoil,message", [
+    (lambda w: w.ctrl.__setitem__((0,), np.inf), "actuator 'drive': ctrl must be finite"),
+    (lambda w: w.joint_kd.__setitem__((0,), -1.0), "joint 'shoulder': joint_kd must be finite and >= 0"),
+    (lambda w: w.pd_target_quat.__setitem__((0,), 0.0), "joint 'shoulder': pd_target_quat is zero"),
+    (lambda w: w.joint_max_torque.__setitem__((0,), 0.0), "joint 'shoulder': max_torque must be > 0"),
+    (lambda w: w.set_body_servo("arm", 100.0, 10.0, 100.0, 10.0) or
+     w.body_target_quat.__setitem__((0,), 0.0), "body 'arm': body_target_quat is zero"),
+    (lambda w: w.set_body_servo("arm", 100.0, 10.0) or
+     w.body_target_pos.__setitem__((0, 1), np.nan), "body 'arm': body_target_pos must be finite"),
+    (lambda w: w.joint_applied_torque.__setitem__((1, 0), np.nan),
+     "joint 'axle': joint torque must be finite"),
+])
+def test_bad_drive_inputs_are_named_and_change_nothing(spoil, message):
+    world = ball_and_motor_world()
+    world.step(3)
+    spoil(world)
+    before = world.get_state()
+    with pytest.raises(StateError, match=message):
+        world.step()
+    after = world.get_state()
+    for field in ("body_pos", "body_quat", "body_vel", "body_angvel"):
+        assert np.array_equal(getattr(after, field), getattr(before, field)), field
+    assert world.time == before.time
+
+
+def test_a_hinge_takes_a_plain_number_and_refuses_nan():
+    world = ball_and_motor_world()
+    world.apply_joint_torque("axle", 2.0)
+    assert world.joint_applied_torque[1, 0] == 2.0
+    with pytest.raises(ModelError, match="joint 'axle': torque is not finite"):
+        world.apply_joint_torque("axle", np.nan)
+
+
+def test_bad_drive_input_names_its_world_in_a_batch():
+    world = ball_and_motor_world(nworld=3)
+    world.joint_kp[2, 0] = np.nan
+    with pytest.raises(StateError, match="joint 'shoulder' in world 2: joint_kp"):
+        world.step()

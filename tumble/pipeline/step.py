@@ -131,6 +131,105 @@ def check_state(s):
     return STATE_OK, -1, -1
 
 
+# What check_drives reports: the field at fault (DRIVE_FIELDS order), or one of these.
+DRIVE_OK = -1
+DRIVE_FIELDS = ("motor_target", "pd_target_quat", "pd_target_q", "pd_target_qd",
+                "joint_applied", "ctrl", "pd_kp", "pd_kd", "body_servo", "body_target_pos",
+                "body_target_quat", "body_target_vel", "body_target_angvel")
+DRIVE_ZERO_BODY_QUAT, DRIVE_BAD_MAX, DRIVE_ZERO_JOINT_QUAT = 100, 101, 102
+
+
+@noalloc
+def _first_bad_2d(a, nonneg):
+    """(w, i) of the first non-finite (or, with ``nonneg``, negative) entry of the
+    (nworld, n) array ``a``; (-1, -1) if none."""
+    for w in range(a.shape[0]):
+        for i in range(a.shape[1]):
+            if not np.isfinite(a[w, i]) or (nonneg and a[w, i] < 0.0):
+                return w, i
+    return -1, -1
+
+
+@noalloc
+def _first_bad_3d(a, nonneg):
+    """``_first_bad_2d`` for an (nworld, n, k) array: (w, i) of the first bad row."""
+    for w in range(a.shape[0]):
+        for i in range(a.shape[1]):
+            for k in range(a.shape[2]):
+                if not np.isfinite(a[w, i, k]) or (nonneg and a[w, i, k] < 0.0):
+                    return w, i
+    return -1, -1
+
+
+@noalloc
+def _normalise_rows(q):
+    """Divide each non-zero 4-vector of the (nworld, n, 4) array ``q`` by its length."""
+    for w in range(q.shape[0]):
+        for i in range(q.shape[1]):
+            n = np.sqrt(q[w, i, 0] ** 2 + q[w, i, 1] ** 2 + q[w, i, 2] ** 2 + q[w, i, 3] ** 2)
+            if n > 0.0:
+                for k in range(4):
+                    q[w, i, k] /= n
+
+
+@noalloc
+def check_drives(s, ball):
+    """Validate the drive inputs of state ``s`` (targets, gains, torques, controls, body
+    servos) before stepping, then normalise the target quaternions.
+
+    ``ball`` (njoint,) bool marks ball joints, whose ``pd_target_quat`` must not be zero.
+    Returns (code, world, index): code DRIVE_OK, an index into DRIVE_FIELDS for a
+    non-finite (or, for gains, negative) entry of that field, DRIVE_ZERO_BODY_QUAT for a
+    zero target orientation of a servoed body, DRIVE_BAD_MAX for a servo torque bound
+    that is not > 0, DRIVE_ZERO_JOINT_QUAT for a zero ball target; index is the joint,
+    actuator or body. Nothing is changed when a check fails.
+    """
+    fields3 = (s.motor_target, s.pd_target_quat, s.pd_target_q, s.pd_target_qd,
+               s.joint_applied)
+    for f in range(5):
+        w, i = _first_bad_3d(fields3[f], False)
+        if w >= 0:
+            return f, w, i
+    w, i = _first_bad_2d(s.ctrl, False)
+    if w >= 0:
+        return 5, w, i
+    w, i = _first_bad_2d(s.pd_kp, True)
+    if w >= 0:
+        return 6, w, i
+    w, i = _first_bad_2d(s.pd_kd, True)
+    if w >= 0:
+        return 7, w, i
+    w, i = _first_bad_3d(s.body_servo, True)
+    if w >= 0:
+        return 8, w, i
+    targets = (s.body_target_pos, s.body_target_quat, s.body_target_vel, s.body_target_angvel)
+    for f in range(4):
+        w, i = _first_bad_3d(targets[f], False)
+        if w >= 0:
+            return 9 + f, w, i
+    nw = s.body_pos.shape[0]
+    for w in range(nw):
+        for b in range(s.body_servo.shape[1]):
+            if s.body_servo[w, b, 2] > 0.0 or s.body_servo[w, b, 3] > 0.0:
+                n2 = 0.0
+                for k in range(4):
+                    n2 += s.body_target_quat[w, b, k] ** 2
+                if n2 < 1e-24:
+                    return DRIVE_ZERO_BODY_QUAT, w, b
+        for j in range(s.pd_max.shape[1]):
+            if not s.pd_max[w, j] > 0.0:
+                return DRIVE_BAD_MAX, w, j
+            if ball[j]:
+                n2 = 0.0
+                for k in range(4):
+                    n2 += s.pd_target_quat[w, j, k] ** 2
+                if n2 < 1e-24:
+                    return DRIVE_ZERO_JOINT_QUAT, w, j
+    _normalise_rows(s.body_target_quat)
+    _normalise_rows(s.pd_target_quat)
+    return DRIVE_OK, -1, -1
+
+
 @njit(cache=True)
 def solve_rows(m, rows, nrow, njrow, ncon, inv_inertia, vel, angvel, imp, o):
     """Solve joint and contact rows together with the solver the options pick.
