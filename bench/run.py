@@ -126,7 +126,9 @@ def profile_table(profiles):
         total = p["us_per_step"]
         parts = ", ".join("%s %.1f" % (k, v) for k, v in sorted(
             p["stages_us"].items(), key=lambda kv: -kv[1]) if v >= 0.02 * total)
-        lines.append("  %-13s %8.1f us: %s" % (p["scene"], total, parts))
+        lines.append("  %-13s %8.1f us: %s%s" % (
+            p["scene"], total, parts, " (first %d steps)" % p["steps"]
+            if p["scene"] in PROFILE_STEPS else ""))
     return "\n".join(lines)
 
 
