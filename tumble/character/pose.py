@@ -29,7 +29,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..io.bvh import Motion
-from . import _quat as Q
+from ..math import quat_np as Q
 from .ragdoll import Ragdoll
 from .skeleton import Skeleton
 

@@ -25,7 +25,7 @@ import numpy as np
 from ..errors import ModelError
 from ..io.bvh import Motion
 from ..model.builder import ModelBuilder
-from . import _quat as Q
+from ..math import quat_np as Q
 from .skeleton import CharacterModel, Skeleton, load_character_model
 
 __all__ = ["Ragdoll", "build_ragdoll", "ragdoll_from_motion", "games105_ragdoll",

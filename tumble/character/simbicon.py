@@ -67,7 +67,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..model.validate import positive
-from . import _quat as Q
+from ..math import quat_np as Q
 from .balance import center_of_mass
 from .pd import apply_joint_torques, targets_from_quats
 

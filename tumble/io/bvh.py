@@ -38,6 +38,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..errors import ModelError
+from ..math import quat_np as Q
 
 __all__ = ["Motion", "load_bvh", "load_bvh_string", "save_bvh", "format_bvh"]
 
@@ -47,65 +48,6 @@ _POS_CHANNELS = {"Xposition": 0, "Yposition": 1, "Zposition": 2}
 # Tolerance on frame indices when resampling: snaps t/dt to whole frames so that
 # resampling at a multiple of the frame rate copies the original frames exactly.
 _FRAME_EPS = 1e-9
-
-
-# ----------------------------------------------------------------------------
-# Vectorised quaternion helpers, (..., 4) arrays, (x, y, z, w).
-# ----------------------------------------------------------------------------
-
-def _qmul(a, b):
-    """Hamilton product ``a * b`` over leading axes (apply b, then a)."""
-    ax, ay, az, aw = np.moveaxis(a, -1, 0)
-    bx, by, bz, bw = np.moveaxis(b, -1, 0)
-    return np.stack((aw * bx + bw * ax + ay * bz - az * by,
-                     aw * by + bw * ay + az * bx - ax * bz,
-                     aw * bz + bw * az + ax * by - ay * bx,
-                     aw * bw - ax * bx - ay * by - az * bz), axis=-1)
-
-
-def _qconj(q):
-    return q * np.array([-1.0, -1.0, -1.0, 1.0])
-
-
-def _qrot(q, v):
-    """Rotate vectors ``v`` (..., 3) by unit quaternions ``q`` (..., 4)."""
-    u = q[..., :3]
-    w = q[..., 3:]
-    t = 2.0 * np.cross(u, v)
-    return v + w * t + np.cross(u, t)
-
-
-def _qrotvec(q):
-    """Rotation vector (..., 3), angle in [0, pi], of unit quaternions (..., 4)."""
-    # q and -q are the same rotation: take the w >= 0 one for the shortest angle.
-    q = np.where(q[..., 3:] < 0.0, -q, q)
-    v = q[..., :3]
-    s = np.linalg.norm(v, axis=-1, keepdims=True)
-    angle = 2.0 * np.arctan2(s, q[..., 3:])
-    # angle / s -> 2 / w as s -> 0; the series keeps small rotations accurate.
-    small = s < 1e-12
-    factor = np.where(small, 2.0 / np.maximum(q[..., 3:], 1e-300), angle / np.where(small, 1.0, s))
-    return v * factor
-
-
-def _slerp(q0, q1, alpha):
-    """Spherical interpolation from q0 (alpha = 0) to q1 (alpha = 1) along the short arc.
-
-    q0, q1: (..., 4); alpha: broadcastable to (..., 1). Returns q0 exactly where alpha == 0.
-    """
-    dot = np.sum(q0 * q1, axis=-1, keepdims=True)
-    q1 = np.where(dot < 0.0, -q1, q1)
-    dot = np.abs(dot)
-    theta = np.arccos(np.clip(dot, -1.0, 1.0))
-    sin_theta = np.sin(theta)
-    # Nearly equal rotations: sin(theta) ~ 0, normalised lerp is exact to rounding.
-    near = sin_theta < 1e-9
-    safe = np.where(near, 1.0, sin_theta)
-    w0 = np.where(near, 1.0 - alpha, np.sin((1.0 - alpha) * theta) / safe)
-    w1 = np.where(near, alpha, np.sin(alpha * theta) / safe)
-    out = w0 * q0 + w1 * q1
-    out /= np.linalg.norm(out, axis=-1, keepdims=True)
-    return np.where(np.asarray(alpha) == 0.0, q0, out)
 
 
 # ----------------------------------------------------------------------------
@@ -294,8 +236,8 @@ class Motion:
                 pos[:, j] = self.local_positions[:, j]
                 quat[:, j] = self.local_rotations[:, j]
             else:
-                pos[:, j] = pos[:, p] + _qrot(quat[:, p], self.local_positions[:, j])
-                quat[:, j] = _qmul(quat[:, p], self.local_rotations[:, j])
+                pos[:, j] = pos[:, p] + Q.qrot(quat[:, p], self.local_positions[:, j])
+                quat[:, j] = Q.qmul(quat[:, p], self.local_rotations[:, j])
         return pos, quat
 
     def velocities(self):
@@ -317,7 +259,7 @@ class Motion:
         span = np.full((F, 1, 1), 2.0 * dt)
         span[0] = span[-1] = dt
         # Left-multiplied increment: q_next = d * q_prev, so d is in the world frame.
-        ang = _qrotvec(_qmul(nxt, _qconj(prv))) / span
+        ang = Q.qrotvec(Q.qmul(nxt, Q.qconj(prv))) / span
         return lin, ang
 
     # -- editing ------------------------------------------------------------
@@ -371,7 +313,7 @@ class Motion:
         alpha[alpha < _FRAME_EPS] = 0.0
         i1 = np.minimum(i0 + 1, F - 1)
         a = alpha[:, None, None]
-        rot = _slerp(self.local_rotations[i0], self.local_rotations[i1], a)
+        rot = Q.qslerp(self.local_rotations[i0], self.local_rotations[i1], a)
         p0, p1 = self.local_positions[i0], self.local_positions[i1]
         pos = np.where(a == 0.0, p0, (1.0 - a) * p0 + a * p1)
         return self._replace(frame_time=new_dt, local_rotations=rot, local_positions=pos)
@@ -404,7 +346,7 @@ class Motion:
         # Reflection M = -(rotation by pi about n): M R M = qn R qn, with qn = (n, 0).
         # The minus sign keeps w unchanged for axis-aligned planes.
         qn = np.append(n, 0.0)
-        rot = -_qmul(_qmul(qn, self.local_rotations[:, perm]), qn)
+        rot = -Q.qmul(Q.qmul(qn, self.local_rotations[:, perm]), qn)
         return self._replace(offsets=reflect(self.offsets[perm]),
                              local_rotations=rot,
                              local_positions=reflect(self.local_positions[:, perm]))

@@ -1,7 +1,8 @@
-"""Vectorised quaternion helpers for the character layer, (..., 4) arrays (x, y, z, w).
+"""Vectorised quaternion helpers, (..., 4) arrays (x, y, z, w), broadcast over leading axes.
 
-Plain NumPy (the character layer works on whole skeletons and motions at once, outside
-the compiled step); the Numba kernels of ``tumble.math`` do the same for scalars.
+Plain NumPy, for code that works on whole skeletons and motions at once outside the
+compiled step (motion files, the character layer); the Numba kernels of
+``tumble.math.quat`` do the same for one quaternion at a time.
 """
 import numpy as np
 
@@ -90,3 +91,23 @@ def qfrom_matrix(m):
         q[3] = (m[k, j] - m[j, k]) / s
     q /= np.linalg.norm(q)
     return q if q[3] >= 0.0 else -q
+
+
+def qslerp(q0, q1, alpha):
+    """Spherical interpolation from q0 (alpha = 0) to q1 (alpha = 1) along the short arc.
+
+    q0, q1: (..., 4); alpha: broadcastable to (..., 1). Returns q0 exactly where alpha == 0.
+    """
+    dot = np.sum(q0 * q1, axis=-1, keepdims=True)
+    q1 = np.where(dot < 0.0, -q1, q1)
+    dot = np.abs(dot)
+    theta = np.arccos(np.clip(dot, -1.0, 1.0))
+    sin_theta = np.sin(theta)
+    # Nearly equal rotations: sin(theta) ~ 0, normalised lerp is exact to rounding.
+    near = sin_theta < 1e-9
+    safe = np.where(near, 1.0, sin_theta)
+    w0 = np.where(near, 1.0 - alpha, np.sin((1.0 - alpha) * theta) / safe)
+    w1 = np.where(near, alpha, np.sin(alpha * theta) / safe)
+    out = w0 * q0 + w1 * q1
+    out /= np.linalg.norm(out, axis=-1, keepdims=True)
+    return np.where(np.asarray(alpha) == 0.0, q0, out)
