@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 import tumble
-from tumble.character import _quat as Q
+from tumble.math import quat_np as Q
 from tumble.character import get_pose, joint_targets, rest_alignment, set_pose
 
 DATA = Path(__file__).resolve().parent.parent / "data" / "games105"

@@ -14,7 +14,7 @@ import pytest
 import tumble
 from tumble.character import (GAMES105_BOX_SCALES, Skeleton, build_ragdoll,
                               games105_character_path, load_character_model)
-from tumble.character import _quat as Q
+from tumble.math import quat_np as Q
 from tumble.model.builder import body_pair_key
 
 DATA = Path(__file__).resolve().parent.parent / "data" / "games105"

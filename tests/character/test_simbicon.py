@@ -24,7 +24,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 import tumble
-from tumble.character import _quat as Q
+from tumble.math import quat_np as Q
 from tumble.character.balance import center_of_mass
 from tumble.character.balance import Push
 from tumble.character.simbicon import (BipedMap, SimbiconController, gait_names, load_gait,
