@@ -17,7 +17,7 @@ from ..math.quat import quat_mul, quat_rotate
 from ..model.model import DYNAMIC
 from .collision.broadphase import BROADPHASE_SAP, overlapping_pairs
 from .collision.dispatch import collide_geoms, collide_pair, geom_aabb_any
-from .collision.shapes import CONVEX
+from .collision.shapes import CONVEX, PLANE
 
 # What collide_world reports besides the contact count.
 COLLIDE_OK, COLLIDE_PAIRS_FULL, COLLIDE_CONTACTS_FULL = 0, 1, 2
@@ -51,6 +51,20 @@ def world_aabbs(m, gpos, gquat, world_margin, aabb_lo, aabb_hi):
         for k in range(3):
             aabb_lo[g, k] = lo[k]
             aabb_hi[g, k] = hi[k]
+
+
+@noalloc
+def _above_plane(plane_pos, plane_quat, lo, hi, margin):
+    """Whether the box ``lo``..``hi`` lies entirely more than ``margin`` above the plane
+    (the side its +z normal points to): then nothing inside it can touch the plane, and
+    the pair test is skipped. Infinite boxes (planes, heightfields) never are."""
+    n = quat_rotate(plane_quat, (0.0, 0.0, 1.0))
+    lowest = 0.0
+    for k in range(3):
+        c = 0.5 * (lo[k] + hi[k])
+        e = 0.5 * (hi[k] - lo[k])
+        lowest += n[k] * (c - plane_pos[k]) - abs(n[k]) * e
+    return lowest > margin
 
 
 @noalloc
@@ -117,6 +131,10 @@ def collide_world(m, pos, quat, gpos, gquat, aabb_lo, aabb_hi, pairs, con, prev_
             return COLLIDE_CONTACTS_FULL, 2 * cap + 64
         margin = max(m.geom_margin[ga], m.geom_margin[gb], world_margin)
         ta, tb = np.int64(m.geom_type[ga]), np.int64(m.geom_type[gb])
+        if (ta == PLANE) != (tb == PLANE):
+            gp, go = (ga, gb) if ta == PLANE else (gb, ga)
+            if _above_plane(gpos[gp], gquat[gp], aabb_lo[go], aabb_hi[go], margin):
+                continue
         if ta < CONVEX and tb < CONVEX:
             # primitives straight to their pair routine: collide_geoms takes the whole model,
             # whose reference counting would cost more than most pair tests

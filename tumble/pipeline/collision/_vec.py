@@ -7,73 +7,75 @@ import math
 
 from numba import njit
 
+from ..._jit import noalloc
+
 from ...math.quat import quat_rotate
 
 
-@njit(cache=True)
+@noalloc
 def v3(a):
     """A 3-sequence as a float tuple."""
     return (float(a[0]), float(a[1]), float(a[2]))
 
 
-@njit(cache=True)
+@noalloc
 def q4(a):
     """A 4-sequence (quaternion) as a float tuple."""
     return (float(a[0]), float(a[1]), float(a[2]), float(a[3]))
 
 
-@njit(cache=True)
+@noalloc
 def add(a, b):
     return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
 
 
-@njit(cache=True)
+@noalloc
 def sub(a, b):
     return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
 
 
-@njit(cache=True)
+@noalloc
 def scale(a, s):
     return (a[0] * s, a[1] * s, a[2] * s)
 
 
-@njit(cache=True)
+@noalloc
 def madd(a, b, s):
     """``a + s b``."""
     return (a[0] + s * b[0], a[1] + s * b[1], a[2] + s * b[2])
 
 
-@njit(cache=True)
+@noalloc
 def neg(a):
     return (-a[0], -a[1], -a[2])
 
 
-@njit(cache=True)
+@noalloc
 def vdot(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-@njit(cache=True)
+@noalloc
 def vcross(a, b):
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
-@njit(cache=True)
+@noalloc
 def norm2(a):
     return a[0] * a[0] + a[1] * a[1] + a[2] * a[2]
 
 
-@njit(cache=True)
+@noalloc
 def norm(a):
     return math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
 
 
-@njit(cache=True)
+@noalloc
 def mid(a, b):
     return (0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]), 0.5 * (a[2] + b[2]))
 
 
-@njit(cache=True)
+@noalloc
 def clamp(x, lo, hi):
     if x < lo:
         return lo
@@ -82,7 +84,7 @@ def clamp(x, lo, hi):
     return x
 
 
-@njit(cache=True)
+@noalloc
 def any_perp(u):
     """A unit vector perpendicular to the unit vector ``u`` (deterministic)."""
     ax, ay, az = abs(u[0]), abs(u[1]), abs(u[2])
@@ -96,7 +98,7 @@ def any_perp(u):
     return (p[0] / n, p[1] / n, p[2] / n)
 
 
-@njit(cache=True)
+@noalloc
 def normalize_or(a, fallback):
     """``a / |a|``, or ``fallback`` when ``a`` is zero. Scaled first so that tiny
     (even subnormal-squared) vectors still give an exact unit vector."""
@@ -108,20 +110,20 @@ def normalize_or(a, fallback):
     return (x / n, y / n, z / n)
 
 
-@njit(cache=True)
+@noalloc
 def frame_axes(q):
     """World directions of the local x, y, z axes of orientation ``q``."""
     return (quat_rotate(q, (1.0, 0.0, 0.0)), quat_rotate(q, (0.0, 1.0, 0.0)),
             quat_rotate(q, (0.0, 0.0, 1.0)))
 
 
-@njit(cache=True)
+@noalloc
 def local_to_world(pos, q, p):
     r = quat_rotate(q, p)
     return (pos[0] + r[0], pos[1] + r[1], pos[2] + r[2])
 
 
-@njit(cache=True)
+@noalloc
 def write_contact(out_point, out_normal, out_depth, out_feature, row, p, n, depth, feature):
     """Store one contact in row ``row`` of the output arrays."""
     out_point[row, 0] = p[0]

@@ -19,6 +19,8 @@ import math
 import numpy as np
 from numba import njit
 
+from ..._jit import noalloc
+
 from ._vec import (frame_axes, madd, mid, norm, normalize_or, q4, sub, v3, vcross, vdot,
                    write_contact)
 from .gjk import gjk_distance
@@ -35,12 +37,12 @@ _EDGE_REL = 0.05
 _EDGE_ABS = 1e-9
 
 
-@njit(cache=True)
+@noalloc
 def _sgn(x):
     return 1.0 if x >= 0.0 else -1.0
 
 
-@njit(cache=True)
+@noalloc
 def box_sat(pa, A, ha, pb, B, hb):
     """Separating axis test. ``A``, ``B`` are the world axes of the boxes.
 
@@ -104,14 +106,14 @@ def box_sat(pa, A, ha, pb, B, hb):
     return sep_f, kind_f, idx_f, n_f, sep_e, ie, je, n_e, has_edge
 
 
-@njit(cache=True)
+@noalloc
 def _use_edge(sep_f, sep_e, has_edge, scale):
     if not has_edge:
         return False
     return sep_e > sep_f + _EDGE_REL * max(-sep_f, 0.0) + _EDGE_ABS * scale
 
 
-@njit(cache=True)
+@noalloc
 def _face_setup(pa, A, ha, pb, B, hb, kind_f, idx_f, n_f):
     """Reference/incident face frames for a face axis.
 
@@ -164,7 +166,7 @@ def _face_setup(pa, A, ha, pb, B, hb, kind_f, idx_f, n_f):
     return fc, nr, t1, t2, e1, e2, V, mp, prefix, flip
 
 
-@njit(cache=True)
+@noalloc
 def _face_candidate(k, e1, e2, V, mp, tol):
     """Candidate ``k`` (0..23) of the clipped incident face: ``(valid, x, y, z)``."""
     if k < 4:
@@ -226,7 +228,7 @@ def _face_candidate(k, e1, e2, V, mp, tol):
     return True, x, lim, P[2] + u * (Q[2] - P[2])
 
 
-@njit(cache=True)
+@noalloc
 def _face_deepest(e1, e2, V, mp, tol, margin):
     """Deepest clipped candidate with depth > -margin: ``(index or -1, x, y, z)``.
     Near ties (within ``tol``) go to the lower index, so the choice does not flip
@@ -243,7 +245,7 @@ def _face_deepest(e1, e2, V, mp, tol, margin):
     return best, bx, by, bz
 
 
-@njit(cache=True)
+@noalloc
 def _edge_contact(pa, A, ha, pb, B, hb, ie, je, n):
     """Closest points of the two crossing edges: ``(point_a, point_b, feature)``."""
     ka1 = (ie + 1) % 3
@@ -264,7 +266,7 @@ def _edge_contact(pa, A, ha, pb, B, hb, ie, je, n):
     return qa, qb, EDGE_FEATURE_BASE + 12 * edge_a + edge_b
 
 
-@njit(cache=True)
+@noalloc
 def box_box_deepest(pos_a, quat_a, size_a, pos_b, quat_b, size_b):
     """Signed separation of two boxes and the deepest (or nearest) point pair.
 
@@ -296,7 +298,7 @@ def box_box_deepest(pos_a, quat_a, size_a, pos_b, quat_b, size_b):
     return sep_e, n_e, qa, qb
 
 
-@njit(cache=True)
+@noalloc
 def collide_box_box(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, out_point,
                     out_normal, out_depth, out_feature, start):
     """Box A, box B: up to 4 face contacts or 1 edge-edge contact (see module doc)."""

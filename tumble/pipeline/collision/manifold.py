@@ -22,6 +22,8 @@ import math
 
 from numba import njit
 
+from ..._jit import noalloc
+
 from ...math.quat import quat_rotate
 from ._vec import madd, norm, sub, vcross, vdot, write_contact
 from .shapes import BOX, CAPSULE, CYLINDER
@@ -31,7 +33,7 @@ from .shapes import BOX, CAPSULE, CYLINDER
 _UPRIGHT = 1e-12
 
 
-@njit(cache=True)
+@noalloc
 def num_candidates(gtype):
     """Number of candidate points the incident shape offers."""
     if gtype == BOX:
@@ -43,7 +45,7 @@ def num_candidates(gtype):
     return 1
 
 
-@njit(cache=True)
+@noalloc
 def rim_frame(pos, quat, n):
     """Cylinder axis ``a``, deeper cap sign ``s``, deepest rim direction ``v`` and
     ``u = a x v`` of a cylinder against a face with outward normal ``n``."""
@@ -60,7 +62,7 @@ def rim_frame(pos, quat, n):
     return a, s, v, u
 
 
-@njit(cache=True)
+@noalloc
 def incident_point(gtype, pos, quat, size, k, n, rim_a, rim_s, rim_v, rim_u):
     """Candidate ``k`` of the incident shape: ``(valid, world point on its surface, feature)``.
 
@@ -109,7 +111,7 @@ def incident_point(gtype, pos, quat, size, k, n, rim_a, rim_s, rim_v, rim_u):
     return True, (pos[0] - r * n[0], pos[1] - r * n[1], pos[2] - r * n[2]), 0
 
 
-@njit(cache=True)
+@noalloc
 def _candidate_depth(gtype, pos, quat, size, k, face_pt, n, t1, t2, e1, e2, is_disc,
                      rim_a, rim_s, rim_v, rim_u):
     """``(ok, depth, point, feature)`` of candidate ``k``; ok is False outside the region."""
@@ -129,7 +131,7 @@ def _candidate_depth(gtype, pos, quat, size, k, face_pt, n, t1, t2, e1, e2, is_d
     return True, -vdot(rel, n), p, f
 
 
-@njit(cache=True)
+@noalloc
 def face_manifold(gtype, pos, quat, size, face_pt, n, t1, t2, e1, e2, is_disc, margin,
                   flip, feature_base, out_point, out_normal, out_depth, out_feature, start):
     """Up to 4 deepest candidates of the incident shape below the face, inside its region.

@@ -22,6 +22,8 @@ import math
 import numpy as np
 from numba import njit
 
+from ..._jit import noalloc
+
 from ...math.quat import quat_rotate, quat_rotate_inv
 from ._vec import (any_perp, clamp, local_to_world, madd, mid, norm, normalize_or, q4, scale,
                    sub, v3, vcross, vdot, write_contact)
@@ -35,7 +37,7 @@ _PARALLEL_SIN = 1e-3
 
 # --------------------------------------------------------------------------- helpers
 
-@njit(cache=True)
+@noalloc
 def round_contact(pa, pb, ra, rb, fallback):
     """Contact between the balls of radius ``ra`` at ``pa`` and ``rb`` at ``pb``.
 
@@ -51,7 +53,7 @@ def round_contact(pa, pb, ra, rb, fallback):
     return depth, n, mid(sa, sb)
 
 
-@njit(cache=True)
+@noalloc
 def segment_closest(ca, ua, ha, cb, ub, hb):
     """Parameters ``(s, t)`` of the closest points of the segments ``ca + s ua``,
     ``|s| <= ha`` and ``cb + t ub``, ``|t| <= hb`` (``ua``, ``ub`` unit).
@@ -79,7 +81,7 @@ def segment_closest(ca, ua, ha, cb, ub, hb):
     return s, t
 
 
-@njit(cache=True)
+@noalloc
 def box_sdf(p, h):
     """Signed distance of local point ``p`` to the box of half extents ``h``.
 
@@ -105,7 +107,7 @@ def box_sdf(p, h):
     return az, (0.0, 0.0, s), (p[0], p[1], s * h[2]), 0
 
 
-@njit(cache=True)
+@noalloc
 def cylinder_sdf(p, r, h):
     """Signed distance of local point ``p`` to the cylinder (radius ``r``, half length
     ``h``, axis z). Returns ``(sdf, g, q)`` as :func:`box_sdf` (without the count)."""
@@ -130,7 +132,7 @@ def cylinder_sdf(p, r, h):
 
 # ------------------------------------------------------------------------ plane pairs
 
-@njit(cache=True)
+@noalloc
 def _plane_frame(pos, quat):
     n = quat_rotate(quat, (0.0, 0.0, 1.0))
     t1 = quat_rotate(quat, (1.0, 0.0, 0.0))
@@ -138,7 +140,7 @@ def _plane_frame(pos, quat):
     return v3(pos), n, t1, t2
 
 
-@njit(cache=True)
+@noalloc
 def _plane_any(gtype, pos_a, quat_a, pos_b, quat_b, size_b, margin, out_point, out_normal,
                out_depth, out_feature, start):
     p, n, t1, t2 = _plane_frame(pos_a, q4(quat_a))
@@ -148,7 +150,7 @@ def _plane_any(gtype, pos_a, quat_a, pos_b, quat_b, size_b, margin, out_point, o
     return cnt
 
 
-@njit(cache=True)
+@noalloc
 def collide_plane_sphere(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, out_point,
                          out_normal, out_depth, out_feature, start):
     """Plane A, sphere B: one contact, feature 0."""
@@ -156,7 +158,7 @@ def collide_plane_sphere(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, o
                       out_normal, out_depth, out_feature, start)
 
 
-@njit(cache=True)
+@noalloc
 def collide_plane_capsule(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, out_point,
                           out_normal, out_depth, out_feature, start):
     """Plane A, capsule B: the two end caps, features 0 (``-half_length``) and 1."""
@@ -164,7 +166,7 @@ def collide_plane_capsule(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, 
                       out_normal, out_depth, out_feature, start)
 
 
-@njit(cache=True)
+@noalloc
 def collide_plane_box(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, out_point,
                       out_normal, out_depth, out_feature, start):
     """Plane A, box B: the (up to) 4 deepest vertices, feature = vertex index."""
@@ -172,7 +174,7 @@ def collide_plane_box(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, out_
                       out_normal, out_depth, out_feature, start)
 
 
-@njit(cache=True)
+@noalloc
 def collide_plane_cylinder(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, out_point,
                            out_normal, out_depth, out_feature, start):
     """Plane A, cylinder B: up to 4 rim points (see ``manifold`` for feature ids)."""
@@ -180,7 +182,7 @@ def collide_plane_cylinder(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin,
                       out_normal, out_depth, out_feature, start)
 
 
-@njit(cache=True)
+@noalloc
 def collide_plane_plane(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, out_point,
                         out_normal, out_depth, out_feature, start):
     """Two planes never collide."""
@@ -189,7 +191,7 @@ def collide_plane_plane(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, ou
 
 # ------------------------------------------------------------------- round primitives
 
-@njit(cache=True)
+@noalloc
 def collide_sphere_sphere(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, out_point,
                           out_normal, out_depth, out_feature, start):
     """Sphere A, sphere B: one contact, feature 0 (normal +z when the centres coincide)."""
@@ -200,7 +202,7 @@ def collide_sphere_sphere(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, 
     return 1
 
 
-@njit(cache=True)
+@noalloc
 def collide_sphere_capsule(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, out_point,
                            out_normal, out_depth, out_feature, start):
     """Sphere A, capsule B: one contact, feature 0."""
@@ -216,7 +218,7 @@ def collide_sphere_capsule(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin,
     return 1
 
 
-@njit(cache=True)
+@noalloc
 def _capsule_fallback_normal(ua, ub, ca, cb):
     """Normal for capsules whose axes touch: perpendicular to both, towards B."""
     d = sub(cb, ca)
@@ -236,7 +238,7 @@ def _capsule_fallback_normal(ua, ub, ca, cb):
     return n
 
 
-@njit(cache=True)
+@noalloc
 def collide_capsule_capsule(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, out_point,
                             out_normal, out_depth, out_feature, start):
     """Capsule A, capsule B: closest points of the two segments.
@@ -286,7 +288,7 @@ def collide_capsule_capsule(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin
 
 # ------------------------------------------------------------- sphere/capsule vs boxes
 
-@njit(cache=True)
+@noalloc
 def collide_sphere_box(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, out_point,
                        out_normal, out_depth, out_feature, start):
     """Sphere A, box B: one contact, feature 0 (exact signed distance of the centre)."""
@@ -307,7 +309,7 @@ def collide_sphere_box(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, out
     return 1
 
 
-@njit(cache=True)
+@noalloc
 def segment_box_deepest(c, u, hl, h):
     """Parameter ``t`` in ``[-hl, hl]`` minimising the box signed distance of ``c + t u``
     (all in box-local coordinates). The signed distance to a convex set is convex, so
@@ -348,7 +350,7 @@ def segment_box_deepest(c, u, hl, h):
     return t
 
 
-@njit(cache=True)
+@noalloc
 def _clip_slab(t0, t1, c, u, lo, hi):
     """Restrict ``[t0, t1]`` to the ``t`` with ``lo <= c + t u <= hi``."""
     if abs(u) < 1e-14:
@@ -362,7 +364,7 @@ def _clip_slab(t0, t1, c, u, lo, hi):
     return max(t0, a), min(t1, b)
 
 
-@njit(cache=True)
+@noalloc
 def collide_capsule_box(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, out_point,
                         out_normal, out_depth, out_feature, start):
     """Capsule A, box B.
@@ -455,7 +457,7 @@ def collide_capsule_box(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, ou
     return 1
 
 
-@njit(cache=True)
+@noalloc
 def collide_sphere_cylinder(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, out_point,
                             out_normal, out_depth, out_feature, start):
     """Sphere A, cylinder B: one contact, feature 0 (exact signed distance of the centre)."""

@@ -22,6 +22,8 @@ import math
 
 from numba import njit
 
+from ..._jit import noalloc
+
 from ...math.quat import quat_rotate, quat_rotate_inv
 
 PLANE = 0
@@ -40,7 +42,7 @@ MAX_CONTACTS_PER_PAIR = 4
 INF = math.inf
 
 
-@njit(cache=True)
+@noalloc
 def core_radius(gtype, size):
     """Rounding radius of the shape around its core (sphere, capsule) or 0."""
     if gtype == SPHERE or gtype == CAPSULE:
@@ -48,7 +50,7 @@ def core_radius(gtype, size):
     return 0.0
 
 
-@njit(cache=True)
+@noalloc
 def hull_support_local(verts, dl):
     """Index of the vertex of ``verts`` (k, 3) farthest along local direction ``dl``
     (the first one on ties)."""
@@ -62,7 +64,7 @@ def hull_support_local(verts, dl):
     return k
 
 
-@njit(cache=True)
+@noalloc
 def support_core(gtype, pos, quat, size, d, verts=None):
     """World point of the core of the shape farthest along direction ``d``.
 
@@ -101,7 +103,7 @@ def support_core(gtype, pos, quat, size, d, verts=None):
     return (pos[0] + w[0], pos[1] + w[1], pos[2] + w[2])
 
 
-@njit(cache=True)
+@noalloc
 def support(gtype, pos, quat, size, d, verts=None):
     """World point of the whole shape (core plus radius) farthest along ``d`` (non-zero)."""
     c = support_core(gtype, pos, quat, size, d, verts)
@@ -114,7 +116,7 @@ def support(gtype, pos, quat, size, d, verts=None):
     return (c[0] + x * k, c[1] + y * k, c[2] + z * k)
 
 
-@njit(cache=True)
+@noalloc
 def geom_aabb(gtype, pos, quat, size, margin):
     """World axis-aligned bounding box ``(lo, hi)`` of a geom, grown by ``margin``.
 
@@ -150,7 +152,7 @@ def geom_aabb(gtype, pos, quat, size, margin):
     return ((pos[0] - ex, pos[1] - ey, pos[2] - ez), (pos[0] + ex, pos[1] + ey, pos[2] + ez))
 
 
-@njit(cache=True)
+@noalloc
 def shape_scale(gtype, size, verts=None):
     """A length typical of the shape (largest half extent, or radius plus half length;
     1 for planes; the largest vertex distance from the geom origin for convex hulls),
