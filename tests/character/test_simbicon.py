@@ -149,6 +149,40 @@ def test_standing_pose_arms_down_forearms_forward(ctrl):
         assert elbow[2] > shoulder[2] + 0.01               # forearm bent forward (+z)
 
 
+def test_place_leans_the_pelvis_as_the_gait_with_vertical_legs():
+    """place(): the pelvis pitched forward by the first state's torso pitch plus slope_lean
+    times the slope (the torso servo starts with no error), the legs as standing (thighs
+    and shanks at their rest orientation), the feet on the slope."""
+    angle = math.radians(5)
+    c = make("walk", terrain=Slope(angle))
+    c.place()
+    w, m = c.world, c.model
+    lean = c.gait.states[0].torso[0] + c.gait.slope_lean * angle
+    assert c.gait.slope_lean != 0.0
+
+    def rest_rel(body):
+        return Q.qmul(w.body_quat[body], Q.qconj(m.body_quat0[body]))
+
+    # rest frame: forward +z, left +x; a forward pitch is a rotation about +x
+    assert np.allclose(Q.qrotvec(rest_rel(c.pelvis)), [lean, 0.0, 0.0], atol=1e-12)
+    for s in range(2):
+        for body in (c.thigh[s], int(m.joint_child[c.knee[s]])):
+            assert Q.qangle(rest_rel(body)) < 1e-12
+    low = min(_lowest(c, g) for g in range(m.ngeom) if m.geom_body[g] in c.feet_bodies)
+    assert low == pytest.approx(0.0, abs=2e-3)
+
+
+def _lowest(c, g):
+    """Lowest point of geom g above the terrain (m): box corners only (the feet)."""
+    m, w = c.model, c.world
+    b = m.geom_body[g]
+    corners = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], float)
+    q = Q.qmul(w.body_quat[b], m.geom_quat[g])
+    pts = (w.body_pos[b] + Q.qrot(w.body_quat[b], m.geom_pos[g])
+           + Q.qrot(np.broadcast_to(q, (8, 4)), corners * m.geom_size[g][:3]))
+    return min(p[1] - c.ground_height(p) for p in pts)
+
+
 def test_world_frame_targets_and_balance_law(ctrl):
     c = ctrl
     c.place(speed=0.4)
