@@ -665,17 +665,43 @@ class SimbiconController:
         rest-frame joint rotations ``pose`` (njoint, 4): ``conj(Fa) pose Fb``."""
         return Q.qmul(Q.qconj(self.Fa), Q.qmul(np.asarray(pose, float), self.Fb))
 
-    def place(self, *, speed=0.0, pose=None, position=(0.0, 0.0), yaw=0.0, drop=0.001):
+    def place(self, *, speed=0.0, pose=None, position=(0.0, 0.0), yaw=0.0, drop=0.001,
+              lean=None):
         """Put the character standing on the terrain at ``position`` (x, z), facing ``yaw``,
         in ``pose`` (rest-frame joint rotations, default ``standing_pose()``), moving
-        forward at ``speed`` m/s; resets the controller."""
+        forward at ``speed`` m/s; resets the controller.
+
+        lean : rad of forward pitch of the pelvis (the hips flexed by as much, so the legs
+        stay vertical), or None for the gait's first-state torso pitch plus ``slope_lean``
+        times the slope at ``position`` along ``yaw``: the torso servo then has nothing to
+        correct at the start. Pitching the pelvis from upright at the first step throws the
+        legs and the COM backward (reaction torque), which on an upslope the fast gait did
+        not recover from.
+        """
         m, w = self.model, self.world
         R = self.standing_pose() if pose is None else np.asarray(pose, float)
-        rot, pos = _forward_kinematics(self, R)
+        x, z = position
         yq = self._yaw_quat(yaw)
+        fwd = Q.qrot(yq, self.fwd0)
+        if lean is None:
+            slope = math.atan(self.terrain.slope_along(x, z, (fwd[0], fwd[2])))
+            lean = self.gait.states[0].torso[0] + self.gait.slope_lean * slope
+        if lean != 0.0:
+            # hips flexed by the lean in the pelvis's rest frame (thighs stay vertical once
+            # the whole pose is pitched forward by it below)
+            R = R.copy()
+            pq = _axis_quat(self.left0, lean)
+            for s in range(2):
+                R[self.hip[s]] = _qm(_qc(pq), R[self.hip[s]])
+        rot, pos = _forward_kinematics(self, R)
+        if lean != 0.0:
+            # pitch the pose about the pelvis (its horizontal place is kept)
+            pq = np.broadcast_to(_axis_quat(self.left0, lean), rot.shape)
+            p0 = pos[self.pelvis].copy()
+            rot = Q.qmul(pq, rot)
+            pos = p0 + Q.qrot(pq, pos - p0)
         rot = Q.qmul(np.broadcast_to(yq, rot.shape), rot)
         pos = Q.qrot(np.broadcast_to(yq, (len(pos), 4)), pos)
-        x, z = position
         # lowest point of the feet on the ground under the feet
         low = math.inf
         ground = -math.inf
@@ -689,7 +715,6 @@ class SimbiconController:
         shift = np.array([x, ground - low - drop, z])
         w.body_pos[:] = pos + shift
         w.body_quat[:] = Q.qmul(rot, m.body_quat0)
-        fwd = Q.qrot(yq, self.fwd0)
         w.body_vel[:] = speed * fwd
         w.body_angvel[:] = 0.0
         w.update_joint_coordinates()
