@@ -225,17 +225,24 @@ def scene_rows(world, contacts=False):
     return rows, nrow, m.body_inv_mass, ii, vel.copy(), angvel.copy(), imp
 
 
+def direct_both_ways(world):
+    """The direct solve of the world's current rows over the tree and densely:
+    [(impulses, vel, angvel, iterations)] for each."""
+    rows, nrow, im, ii, vel, angvel, _ = scene_rows(world)
+    out = []
+    for allow_tree in (True, False):
+        v, w, imp = vel.copy(), angvel.copy(), np.zeros(nrow)
+        it = solve_active_set(rows, nrow, im, ii, v, w, imp, 1e-12, allow_tree)
+        out.append((imp, v, w, it))
+    return out
+
+
 def test_chain_scene_tree_matches_dense():
     """The benchmark chain (30 ball joints from the world) at several moments of its fall."""
     world = tumble.World(tumble_scenes.chain())
     for _ in range(5):
         world.step(60)
-        rows, nrow, im, ii, vel, angvel, _ = scene_rows(world)
-        out = []
-        for allow_tree in (True, False):
-            v, w, imp = vel.copy(), angvel.copy(), np.zeros(nrow)
-            it = solve_active_set(rows, nrow, im, ii, v, w, imp, 1e-12, allow_tree)
-            out.append((imp, v, w, it))
+        out = direct_both_ways(world)
         assert_same(*out)
 
 
@@ -254,12 +261,7 @@ def test_limited_hinge_chain_tree_matches_dense():
     clamped = 0
     for _ in range(8):
         world.step(30)
-        rows, nrow, im, ii, vel, angvel, _ = scene_rows(world)
-        out = []
-        for allow_tree in (True, False):
-            v, w, imp = vel.copy(), angvel.copy(), np.zeros(nrow)
-            it = solve_active_set(rows, nrow, im, ii, v, w, imp, 1e-12, allow_tree)
-            out.append((imp, v, w, it))
+        out = direct_both_ways(world)
         assert_same(*out)
         assert out[0][3] > 0                             # no fallback to PGS
         clamped += out[0][3] > 1

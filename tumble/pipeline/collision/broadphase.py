@@ -104,17 +104,7 @@ def broadphase_pairs(aabb_lo, aabb_hi, out_pairs, geom_body=None):
             j = order[jj]
             if aabb_lo[j, ax] > hi_i:
                 break
-            if (aabb_lo[i, 0] > aabb_hi[j, 0] or aabb_lo[j, 0] > aabb_hi[i, 0]
-                    or aabb_lo[i, 1] > aabb_hi[j, 1] or aabb_lo[j, 1] > aabb_hi[i, 1]
-                    or aabb_lo[i, 2] > aabb_hi[j, 2] or aabb_lo[j, 2] > aabb_hi[i, 2]):
-                continue
-            if geom_body is not None:
-                if geom_body[i] == geom_body[j]:
-                    continue
-            if count < cap:
-                out_pairs[count, 0] = min(i, j)
-                out_pairs[count, 1] = max(i, j)
-            count += 1
+            count = _add_pair(aabb_lo, aabb_hi, geom_body, i, j, out_pairs, count)
     sort_pairs(out_pairs, min(count, cap), G)
     return count
 
@@ -173,6 +163,22 @@ def _boxes_overlap(lo, hi, i, j):
     return not (lo[i, 0] > hi[j, 0] or lo[j, 0] > hi[i, 0]
                 or lo[i, 1] > hi[j, 1] or lo[j, 1] > hi[i, 1]
                 or lo[i, 2] > hi[j, 2] or lo[j, 2] > hi[i, 2])
+
+
+@njit(cache=True, inline="always")
+def _add_pair(aabb_lo, aabb_hi, geom_body, i, j, out_pairs, count):
+    """Count the candidate pair (i, j) if its boxes overlap and (with ``geom_body``) its
+    geoms are on different bodies, recording it as (min, max) while ``out_pairs`` has
+    room; returns the new count (the caller asks for a larger buffer when it overflows)."""
+    if not _boxes_overlap(aabb_lo, aabb_hi, i, j):
+        return count
+    if geom_body is not None:
+        if geom_body[i] == geom_body[j]:
+            return count
+    if count < out_pairs.shape[0]:
+        out_pairs[count, 0] = min(i, j)
+        out_pairs[count, 1] = max(i, j)
+    return count + 1
 
 
 @njit(cache=True, inline="always")
@@ -292,15 +298,7 @@ def grid_pairs(aabb_lo, aabb_hi, out_pairs, geom_body=None, cell_scale=GRID_CELL
                     continue
                 if d == 13 and j <= i:
                     continue
-                if not _boxes_overlap(aabb_lo, aabb_hi, i, j):
-                    continue
-                if geom_body is not None:
-                    if geom_body[i] == geom_body[j]:
-                        continue
-                if count < cap:
-                    out_pairs[count, 0] = min(i, j)
-                    out_pairs[count, 1] = max(i, j)
-                count += 1
+                count = _add_pair(aabb_lo, aabb_hi, geom_body, i, j, out_pairs, count)
     # large against small: scan the cells whose small geoms could reach the box (a small
     # centre lies within h / 2 of it), or every small geom when that is cheaper
     for a in range(nl):
@@ -327,27 +325,11 @@ def grid_pairs(aabb_lo, aabb_hi, out_pairs, geom_body=None, cell_scale=GRID_CELL
                             j = items[t]
                             if cx[j] != x or cy[j] != y or cz[j] != z:
                                 continue
-                            if not _boxes_overlap(aabb_lo, aabb_hi, i, j):
-                                continue
-                            if geom_body is not None:
-                                if geom_body[i] == geom_body[j]:
-                                    continue
-                            if count < cap:
-                                out_pairs[count, 0] = min(i, j)
-                                out_pairs[count, 1] = max(i, j)
-                            count += 1
+                            count = _add_pair(aabb_lo, aabb_hi, geom_body, i, j, out_pairs, count)
         else:
             for c in range(ns):
                 j = small[c]
-                if not _boxes_overlap(aabb_lo, aabb_hi, i, j):
-                    continue
-                if geom_body is not None:
-                    if geom_body[i] == geom_body[j]:
-                        continue
-                if count < cap:
-                    out_pairs[count, 0] = min(i, j)
-                    out_pairs[count, 1] = max(i, j)
-                count += 1
+                count = _add_pair(aabb_lo, aabb_hi, geom_body, i, j, out_pairs, count)
     # large against large: sort and sweep along x (unbounded ones sort first and meet all)
     if nl > 1:
         keys = np.empty(nl)
@@ -360,14 +342,6 @@ def grid_pairs(aabb_lo, aabb_hi, out_pairs, geom_body=None, cell_scale=GRID_CELL
                 j = large[order[bb]]
                 if aabb_lo[j, 0] > aabb_hi[i, 0]:
                     break
-                if not _boxes_overlap(aabb_lo, aabb_hi, i, j):
-                    continue
-                if geom_body is not None:
-                    if geom_body[i] == geom_body[j]:
-                        continue
-                if count < cap:
-                    out_pairs[count, 0] = min(i, j)
-                    out_pairs[count, 1] = max(i, j)
-                count += 1
+                count = _add_pair(aabb_lo, aabb_hi, geom_body, i, j, out_pairs, count)
     sort_pairs(out_pairs, min(count, cap), G)
     return count

@@ -346,28 +346,21 @@ def tree_factor(plan, rows, sel, cfm, inv_mass, inv_inertia, nbody):
 def _coupling(plan, rows, sel, u, pa, nbody, wm, wo, dp):
     """wm[wo:] = K_{u, pa} (dim u x dp, row-major): a pair's Jacobian block on its parent
     body, or a body's (6 x m) transposed block of its parent pair."""
-    if u >= nbody:                       # u pair, pa body: rows of u, columns of pa
-        p = u - nbody
-        k = 0
-        for e in range(plan.pair_start[p], plan.pair_start[p + 1]):
-            i = plan.pair_rows[e]
-            if plan.use[i]:
-                r = sel[i]
-                o = _joff(rows, r, pa)
-                for c in range(6):
-                    wm[wo + k * dp + c] = rows.J[r, o + c]
-                k += 1
-    else:                                # u body, pa pair: K = J_pa,u^T (6 x m)
-        p = pa - nbody
-        k = 0
-        for e in range(plan.pair_start[p], plan.pair_start[p + 1]):
-            i = plan.pair_rows[e]
-            if plan.use[i]:
-                r = sel[i]
-                o = _joff(rows, r, u)
-                for c in range(6):
-                    wm[wo + c * dp + k] = rows.J[r, o + c]
-                k += 1
+    # the same Jacobian entries either way: a pair's row k on the body is row k of the
+    # block (u pair, pa body) or column k of it (u body, pa pair: K = J_pa,u^T)
+    if u >= nbody:
+        p, body, row_step, col_step = u - nbody, pa, dp, 1
+    else:
+        p, body, row_step, col_step = pa - nbody, u, 1, dp
+    k = 0
+    for e in range(plan.pair_start[p], plan.pair_start[p + 1]):
+        i = plan.pair_rows[e]
+        if plan.use[i]:
+            r = sel[i]
+            o = _joff(rows, r, body)
+            for c in range(6):
+                wm[wo + k * row_step + c * col_step] = rows.J[r, o + c]
+            k += 1
 
 
 @noalloc
