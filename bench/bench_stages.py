@@ -115,7 +115,7 @@ def profiled_steps(m, s, con, pairs, n, o, t_stage, t_part, counts):
     prev = make_contacts_nb(cap)
     vel_pred = np.empty((nb, 3))
     angvel_pred = np.empty((nb, 3))
-    projection = projection_setup(m, rows, nb)
+    projection = projection_setup(m, rows, nb, njrow > 0 and o.projection > 0)
     has_servo = np.any(s.pd_kp > 0.0) or np.any(s.pd_kd > 0.0)
     has_drives = m.act_joint.shape[0] > 0 or np.any(s.joint_applied != 0.0) or (
         o.pd_mode == PD_EXPLICIT and has_servo)

@@ -69,14 +69,19 @@ PROFILE_STEPS = {"pyramid": 120, "spheres": 120}
 OVERHEAD_S = 900.0
 
 
+def _env():
+    """The environment of a runner: this checkout first on the import path."""
+    return dict(os.environ, PYTHONPATH=os.pathsep.join(
+        [str(ROOT)] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]))
+
+
 def run_one(engine, scene, variant, budget):
     """Run one (engine, scene) in a fresh interpreter; returns its RESULT dict, or a dict
     with 'error' (and the engine's last output lines) if it failed."""
     cmd = [sys.executable, "-m", ENGINES[engine].module, scene, "--budget", str(budget)]
     if variant:
         cmd += ["--variant", variant]
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
-        [str(ROOT)] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]))
+    env = _env()
     base = dict(engine=engine, scene=scene, variant=variant or "default")
     try:
         out = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True,
@@ -105,9 +110,8 @@ def profile_one(scene, variant):
             cmd += ["--variant", variant]
         if scene in PROFILE_STEPS:
             cmd += ["--steps", str(PROFILE_STEPS[scene])]
-        env = dict(os.environ, PYTHONPATH=str(ROOT))
         try:
-            run = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True,
+            run = subprocess.run(cmd, cwd=ROOT, env=_env(), capture_output=True, text=True,
                                  timeout=OVERHEAD_S)
         except subprocess.TimeoutExpired:
             return dict(scene=scene, error="timed out")

@@ -8,7 +8,7 @@ import numpy as np
 
 from .errors import ModelError, SimulationError, StateError, TumbleWarning
 from .math.quat import quat_rotate, quat_rotate_inv
-from .model.model import DYNAMIC, KINEMATIC, STATIC, Model
+from .model.model import DYNAMIC, STATIC, Model
 from .model.validate import positive
 from .pipeline import step as pipeline_step
 from .pipeline.contacts.arrays import ContactArrays, make_contacts
@@ -265,7 +265,11 @@ class World:
         self.parallel = self.nworld > 1 if parallel is None else bool(parallel)
         self._ball_joints = np.array([t == "ball" for t in model.joint_type_names], np.bool_)
         self._folded = np.flatnonzero(model.actuator_folded)
-        self._options_key = None
+        # what the step options derive from the (immutable) model, found once
+        colliding = model.body_mass[np.isin(np.arange(model.nbody), model.geom_body)
+                                    & (model.body_kind == DYNAMIC)]
+        self._lightest_colliding_mass = float(colliding.min()) if colliding.size else 1.0
+        self._gravity_norm = float(np.linalg.norm(model.gravity))
         nb, nw, nj = model.nbody, self.nworld, model.njoint
         self._state = pipeline_step.StateArrays(
             body_pos=np.zeros((nw, nb, 3)), body_quat=np.zeros((nw, nb, 4)),
@@ -604,9 +608,12 @@ class World:
         s, m = self._state, self.model
         code, w, i = pipeline_step.check_drives(s, self._ball_joints)
         if code != pipeline_step.DRIVE_OK:
-            where = (f"actuator '{m.actuator_names[i]}'" if code == 5 else
-                     f"body '{m.body_names[i]}'" if code in (8, 9, 10, 11, 12,
-                                                           pipeline_step.DRIVE_ZERO_BODY_QUAT)
+            field = (pipeline_step.DRIVE_FIELDS[code] if code < len(pipeline_step.DRIVE_FIELDS)
+                     else {pipeline_step.DRIVE_ZERO_BODY_QUAT: "body_target_quat",
+                           pipeline_step.DRIVE_BAD_MAX: "pd_max",
+                           pipeline_step.DRIVE_ZERO_JOINT_QUAT: "pd_target_quat"}[code])
+            where = (f"actuator '{m.actuator_names[i]}'" if field == "ctrl" else
+                     f"body '{m.body_names[i]}'" if field.startswith("body")
                      else f"joint '{m.joint_names[i]}'")
             if self.nworld > 1:
                 where += f" in world {w}"
@@ -616,7 +623,6 @@ class World:
                 raise StateError(f"{where}: max_torque must be > 0, got {s.pd_max[w, i]!r}")
             if code == pipeline_step.DRIVE_ZERO_JOINT_QUAT:
                 raise StateError(f"{where}: pd_target_quat is zero")
-            field = pipeline_step.DRIVE_FIELDS[code]
             gain = field in ("pd_kp", "pd_kd", "body_servo")
             raise StateError(f"{where}: {_DRIVE_NAMES.get(field, field)} must be finite"
                              + (" and >= 0" if gain else "")
@@ -629,22 +635,8 @@ class World:
             s.pd_target_qd[:, m.actuator_joint[folded], 0] = 0.0
 
     def _options(self):
-        """The StepOptions of the current settings, rebuilt only when one has changed."""
-        key = (self.dt, self.gyroscopic, self.quat_integration, self.divergence_limit,
-               self.erp, self.cfm, self.solver, self.iterations, self.tolerance,
-               self.warm_start, self.projection, self.projection_tolerance, self.contact,
-               self.contact_erp, self.contact_cfm, self.slop, self.bounce_threshold,
-               self.penalty_stiffness, self.penalty_damping, self.slip_velocity,
-               self.contact_margin, self.pd, self.broadphase)
-        if key != self._options_key:
-            self._options_cached = self._make_options()
-            self._options_key = key
-        return self._options_cached
-
-    def _make_options(self):
         k, c = self.penalty_parameters()
-        g = float(np.linalg.norm(self.model.gravity))
-        v_slip = self.slip_velocity or max(g * self.dt, 1e-3)
+        v_slip = self.slip_velocity or max(self._gravity_norm * self.dt, 1e-3)
         return pipeline_step.StepOptions(
             float(self.dt), GYROSCOPIC[self.gyroscopic], QUAT_INTEGRATION[self.quat_integration],
             float(self.divergence_limit), float(self.erp), float(self.cfm), SOLVERS[self.solver],
@@ -656,9 +648,7 @@ class World:
 
     def penalty_parameters(self):
         """(stiffness N/m, damping N s/m) of penalty contacts at the current dt."""
-        masses = self.model.body_mass[np.isin(np.arange(self.model.nbody), self.model.geom_body)
-                                      & (self.model.body_kind == DYNAMIC)]
-        k, c = default_penalty(float(masses.min()) if masses.size else 1.0, self.dt)
+        k, c = default_penalty(self._lightest_colliding_mass, self.dt)
         return (self.penalty_stiffness or k,
                 c if self.penalty_damping is None else self.penalty_damping)
 

@@ -43,11 +43,12 @@ def _rigid_core_rows(m, rows, idx):
 
 
 @njit(cache=True)
-def projection_setup(m, rows, nbody):
+def projection_setup(m, rows, nbody, enabled):
     """What ``project_joints`` needs for model ``m``, made once per ``step`` call: the rigid
     joints' core rows, whether they form a tree and its plan (``solvers/tree.py``), and
-    the work arrays. Writes the rows' bodies into ``rows``."""
-    n = _rigid_core_rows(m, rows, np.empty(0, np.int64))
+    the work arrays. Writes the rows' bodies into ``rows``. With ``enabled`` False (no
+    projection asked for) it selects no rows, and ``project_joints`` does nothing."""
+    n = _rigid_core_rows(m, rows, np.empty(0, np.int64)) if enabled else 0
     idx = np.empty(n, np.int64)
     _rigid_core_rows(m, rows, idx)
     tree, plan = tree_plan(rows, idx, n, m.body_inv_mass, nbody)

@@ -287,7 +287,7 @@ def step_worlds(m, s, con, pairs, n, o):
     prev = make_contacts_nb(cap)
     vel_pred = np.empty((nb, 3))
     angvel_pred = np.empty((nb, 3))
-    projection = projection_setup(m, rows, nb)
+    projection = projection_setup(m, rows, nb, njrow > 0 and o.projection > 0)
     status, fail_w, fail_k, fail_b, needed = STEP_OK, -1, -1, -1, 0
     # explicit actuator work only when something could push: a servo off the implicit
     # path, an applied joint torque or an MJCF actuator
