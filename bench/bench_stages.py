@@ -116,6 +116,7 @@ def profiled_steps(m, s, con, pairs, n, o, t_stage, t_part, counts):
     vel_pred = np.empty((nb, 3))
     angvel_pred = np.empty((nb, 3))
     projection = projection_setup(m, rows, nb, njrow > 0 and o.projection > 0)
+    caches = P.make_solver_caches(m, servoed, nb)
     has_servo = np.any(s.pd_kp > 0.0) or np.any(s.pd_kd > 0.0)
     has_drives = m.act_joint.shape[0] > 0 or np.any(s.joint_applied != 0.0) or (
         o.pd_mode == PD_EXPLICIT and has_servo)
@@ -152,7 +153,7 @@ def profiled_steps(m, s, con, pairs, n, o, t_stage, t_part, counts):
             world_inverse_inertia(m, quat, inv_inertia)
             stable_servo_forces(m, pos, quat, vel, angvel, drive, h, o.erp, o.cfm,
                                 o.gyroscopic, o.tolerance, rows, imp, vel_pred,
-                                angvel_pred, inv_inertia, force, torque)
+                                angvel_pred, inv_inertia, force, torque, caches[0])
         if o.contact == P.CONTACT_PENALTY and ncon > 0:
             penalty_forces(m, pos, quat, vel, angvel, cw, ncon, o.penalty_k, o.penalty_c,
                            o.v_slip, h, nper == ROWS_SPIN, force, torque)
@@ -196,7 +197,7 @@ def profiled_steps(m, s, con, pairs, n, o, t_stage, t_part, counts):
                     counts[3] += 1
             t0 = _now(buf)
             s.lcp_fallbacks[w] += P.solve_rows(m, rows, nrow, nfix, ncon, inv_inertia, vel,
-                                               angvel, imp, o)
+                                               angvel, imp, o, caches)
             t1 = _now(buf)
             t_stage[6] += t1 - t0
             if njrow > 0:

@@ -243,3 +243,35 @@ def test_load_state_refuses_other_models_and_files(tmp_path):
     np.savez(tmp_path / "nan.npz", **bad)
     with pytest.raises(tumble.StateError, match="nan.npz: set_state: body_vel is not finite"):
         w.load_state(tmp_path / "nan.npz")
+
+
+def test_scratch_kept_between_calls_changes_nothing():
+    """The serial step keeps its scratch memory (rows, tree plans) from call to call: a world
+    whose scratch has served another motion gives the same bits as a fresh one, also when
+    a body servo switched on between calls makes the scratch anew and when the contact
+    buffer has to grow."""
+    def run(w, chunks, servo_at):
+        done = 0
+        for n in chunks:
+            if done == servo_at:
+                w.set_body_servo("RootJoint", kp=200.0, kd=20.0, kp_rot=50.0, kd_rot=5.0)
+                w.body_target_pos[0] = w.body_pos[0] + 0.01
+                w.body_target_quat[0] = w.body_quat[0]
+            w.step(n)
+            done += n
+        return full_snapshot(w)
+
+    def tiny_buffer(w):
+        w._contacts = type(w._contacts)(*[a[:, :1].copy() for a in w._contacts])
+    chunks = [1] * 10 + [30, 1, 39]
+    fresh = ragdoll_world()
+    tiny_buffer(fresh)
+    expected = run(fresh, chunks, servo_at=40)
+    used = ragdoll_world()
+    start = used.get_state()
+    used.apply_force(0, (300.0, 0.0, 0.0))
+    used.step(50)                                        # another motion, other contacts
+    used.set_state(start)
+    used.set_body_servo("RootJoint", 0.0, 0.0)
+    tiny_buffer(used)
+    assert_same(run(used, chunks, servo_at=40), expected)

@@ -36,6 +36,17 @@ _STATE_FIELDS = {
 }
 
 
+def _entry_point(dispatcher, args):
+    """The compiled entry point of Numba ``dispatcher`` for arguments typed as ``args``
+    (the dispatcher itself if this Numba does not expose it): calling it skips the
+    dispatcher's type matching, which costs more than a small world's step."""
+    try:
+        sig = tuple(dispatcher.typeof_pyval(a) for a in args)
+        return dispatcher.overloads[sig].entry_point
+    except (AttributeError, KeyError, TypeError):
+        return dispatcher
+
+
 # How check_drives' fields are named in errors (the user-facing name where it differs).
 _DRIVE_NAMES = {"motor_target": "joint_motor_target", "joint_applied": "joint torque",
                 "pd_kp": "joint_kp", "pd_kd": "joint_kd", "body_servo": "body servo gain"}
@@ -264,7 +275,6 @@ class World:
             raise ModelError(f"world: parallel must be True, False or None, got {parallel!r}")
         self.parallel = self.nworld > 1 if parallel is None else bool(parallel)
         self._ball_joints = np.array([t == "ball" for t in model.joint_type_names], np.bool_)
-        self._folded = np.flatnonzero(model.actuator_folded)
         # what the step options derive from the (immutable) model, found once
         colliding = model.body_mass[np.isin(np.arange(model.nbody), model.geom_body)
                                     & (model.body_kind == DYNAMIC)]
@@ -288,6 +298,8 @@ class World:
             lcp_fallbacks=np.zeros(nw, np.int64))
         self._contacts = make_contacts(nw, 8 * model.ngeom + 64)
         self._pairs = np.zeros((8 * model.ngeom + 64, 2), np.int32)
+        self._work = None          # scratch of the serial step, kept between calls
+        self._entry = None         # step_checked's compiled entry point, once called
         self.reset()
 
     @property
@@ -572,24 +584,12 @@ class World:
             raise ModelError(f"step: n must be a non-negative integer, got {n!r}")
         if n == 0:
             return
-        s = self._state
-        code, w, b = pipeline_step.check_state(s)
-        if code != pipeline_step.STATE_OK:
-            where = f"body '{self.model.body_names[b]}'" + (f" in world {w}" if self.nworld > 1 else "")
-            raise StateError(f"{where}: {_STATE_FIELDS[code]}")
-        self._check_drives()
-        self._enforce_static()
+        n = int(n)
         options = self._options()
-        while True:
-            stepper = step_worlds_parallel if self.parallel else pipeline_step.step_worlds
-            status, w, k, b, needed = stepper(
-                self.model.arrays, s, self._contacts, self._pairs, int(n), options)
-            if status == pipeline_step.STEP_MORE_PAIRS:
-                self._pairs = np.zeros((2 * needed, 2), np.int32)
-            elif status == pipeline_step.STEP_MORE_CONTACTS:
-                self._grow_contacts(needed)
-            else:
-                break
+        if self.parallel:
+            status, w, k, b = self._step_parallel(n, options)
+        else:
+            status, w, k, b = self._step_serial(n, options)
         if status == pipeline_step.STEP_DIVERGED:
             t = self.time + k * self.dt
             where = f"body '{self.model.body_names[b]}'" + (f" in world {w}" if self.nworld > 1 else "")
@@ -599,40 +599,90 @@ class World:
                 f"was before the call. Try a smaller dt or check the forces applied.",
                 body=self.model.body_names[b], step=int(k), time=t, world=int(w))
         self.time += n * self.dt
-        s.applied_force[:] = 0.0
-        s.applied_torque[:] = 0.0
-        s.joint_applied[:] = 0.0
+        if self.parallel:                 # (the serial kernel clears them itself)
+            s = self._state
+            s.applied_force[:] = 0.0
+            s.applied_torque[:] = 0.0
+            s.joint_applied[:] = 0.0
 
-    def _check_drives(self):
-        """Refuse non-finite targets, negative gains; fold position actuators' controls."""
-        s, m = self._state, self.model
+    def _step_serial(self, n, options):
+        """Checks, the step and its retries in compiled code (``step.step_checked``), called
+        straight through its compiled entry point once known: Numba's dispatcher would
+        spend more time matching the hundred arrays' types than a small world's step.
+        Returns step_worlds' (status, world, step, body)."""
+        s = self._state
+        while True:
+            if self._work is None:
+                self._work = pipeline_step.make_step_work(
+                    self.model.arrays, s, self._contacts, options)
+            args = (self.model.arrays, s, self._contacts, self._pairs, n, options,
+                    self._ball_joints, self._work)
+            if self._entry is None:
+                stage, code, w, i, k, needed = pipeline_step.step_checked(*args)
+                self._entry = _entry_point(pipeline_step.step_checked, args)
+            else:
+                stage, code, w, i, k, needed = self._entry(*args)
+            if stage == pipeline_step.CALL_BAD_STATE:
+                raise self._state_error(code, w, i)
+            if stage == pipeline_step.CALL_BAD_DRIVE:
+                raise self._drive_error(code, w, i)
+            if stage == pipeline_step.CALL_NEW_WORK:
+                self._work = None
+            elif code == pipeline_step.STEP_MORE_PAIRS:
+                self._pairs = np.zeros((2 * needed, 2), np.int32)
+            elif code == pipeline_step.STEP_MORE_CONTACTS:
+                self._grow_contacts(needed)
+            else:
+                return code, w, k, i
+
+    def _step_parallel(self, n, options):
+        """The batched path: checks in NumPy-facing kernels, then every world on a thread."""
+        s = self._state
+        code, w, b = pipeline_step.check_state(s)
+        if code != pipeline_step.STATE_OK:
+            raise self._state_error(code, w, b)
         code, w, i = pipeline_step.check_drives(s, self._ball_joints)
         if code != pipeline_step.DRIVE_OK:
-            field = (pipeline_step.DRIVE_FIELDS[code] if code < len(pipeline_step.DRIVE_FIELDS)
-                     else {pipeline_step.DRIVE_ZERO_BODY_QUAT: "body_target_quat",
-                           pipeline_step.DRIVE_BAD_MAX: "pd_max",
-                           pipeline_step.DRIVE_ZERO_JOINT_QUAT: "pd_target_quat"}[code])
-            where = (f"actuator '{m.actuator_names[i]}'" if field == "ctrl" else
-                     f"body '{m.body_names[i]}'" if field.startswith("body")
-                     else f"joint '{m.joint_names[i]}'")
-            if self.nworld > 1:
-                where += f" in world {w}"
-            if code == pipeline_step.DRIVE_ZERO_BODY_QUAT:
-                raise StateError(f"{where}: body_target_quat is zero")
-            if code == pipeline_step.DRIVE_BAD_MAX:
-                raise StateError(f"{where}: max_torque must be > 0, got {s.pd_max[w, i]!r}")
-            if code == pipeline_step.DRIVE_ZERO_JOINT_QUAT:
-                raise StateError(f"{where}: pd_target_quat is zero")
-            gain = field in ("pd_kp", "pd_kd", "body_servo")
-            raise StateError(f"{where}: {_DRIVE_NAMES.get(field, field)} must be finite"
-                             + (" and >= 0" if gain else "")
-                             + f", got {getattr(s, field)[w, i]!r}")
-        if self._folded.size:
-            folded = self._folded
-            c = np.clip(s.ctrl[:, folded], m.actuator_ctrlrange[folded, 0],
-                        m.actuator_ctrlrange[folded, 1])
-            s.pd_target_q[:, m.actuator_joint[folded], 0] = c / m.actuator_gear[folded]
-            s.pd_target_qd[:, m.actuator_joint[folded], 0] = 0.0
+            raise self._drive_error(code, w, i)
+        pipeline_step.fold_position_actuators(self.model.arrays, s)
+        self._enforce_static()
+        while True:
+            status, w, k, b, needed = step_worlds_parallel(
+                self.model.arrays, s, self._contacts, self._pairs, n, options)
+            if status == pipeline_step.STEP_MORE_PAIRS:
+                self._pairs = np.zeros((2 * needed, 2), np.int32)
+            elif status == pipeline_step.STEP_MORE_CONTACTS:
+                self._grow_contacts(needed)
+            else:
+                return status, w, k, b
+
+    def _state_error(self, code, w, b):
+        """The StateError for check_state's report ``code`` on body ``b`` of world ``w``."""
+        where = f"body '{self.model.body_names[b]}'" + (f" in world {w}" if self.nworld > 1 else "")
+        return StateError(f"{where}: {_STATE_FIELDS[code]}")
+
+    def _drive_error(self, code, w, i):
+        """The StateError for check_drives' report ``code`` on index ``i`` of world ``w``."""
+        s, m = self._state, self.model
+        field = (pipeline_step.DRIVE_FIELDS[code] if code < len(pipeline_step.DRIVE_FIELDS)
+                 else {pipeline_step.DRIVE_ZERO_BODY_QUAT: "body_target_quat",
+                       pipeline_step.DRIVE_BAD_MAX: "pd_max",
+                       pipeline_step.DRIVE_ZERO_JOINT_QUAT: "pd_target_quat"}[code])
+        where = (f"actuator '{m.actuator_names[i]}'" if field == "ctrl" else
+                 f"body '{m.body_names[i]}'" if field.startswith("body")
+                 else f"joint '{m.joint_names[i]}'")
+        if self.nworld > 1:
+            where += f" in world {w}"
+        if code == pipeline_step.DRIVE_ZERO_BODY_QUAT:
+            return StateError(f"{where}: body_target_quat is zero")
+        if code == pipeline_step.DRIVE_BAD_MAX:
+            return StateError(f"{where}: max_torque must be > 0, got {s.pd_max[w, i]!r}")
+        if code == pipeline_step.DRIVE_ZERO_JOINT_QUAT:
+            return StateError(f"{where}: pd_target_quat is zero")
+        gain = field in ("pd_kp", "pd_kd", "body_servo")
+        return StateError(f"{where}: {_DRIVE_NAMES.get(field, field)} must be finite"
+                          + (" and >= 0" if gain else "")
+                          + f", got {getattr(s, field)[w, i]!r}")
 
     def _options(self):
         k, c = self.penalty_parameters()
@@ -640,7 +690,8 @@ class World:
         return pipeline_step.StepOptions(
             float(self.dt), GYROSCOPIC[self.gyroscopic], QUAT_INTEGRATION[self.quat_integration],
             float(self.divergence_limit), float(self.erp), float(self.cfm), SOLVERS[self.solver],
-            self.iterations, float(self.tolerance), self.warm_start, self.projection,
+            int(self.iterations), float(self.tolerance), bool(self.warm_start),
+            int(self.projection),
             float(self.projection_tolerance), CONTACT_MODELS[self.contact],
             float(self.contact_erp), float(self.contact_cfm), float(self.slop),
             float(self.bounce_threshold), float(k), float(c), float(v_slip),

@@ -132,13 +132,14 @@ def actuator_forces(m, pos, quat, vel, angvel, drive, ctrl, mode, force, torque)
 @njit(cache=True)
 def stable_servo_forces(m, pos, quat, vel, angvel, drive, h, o_erp, o_cfm, gyroscopic,
                         tolerance, rows, imp, vel_pred, angvel_pred, inv_inertia, force,
-                        torque):
+                        torque, cache):
     """Stable PD: add the servo forces of the implicit solve as explicit forces (N, N m).
 
     Predicts the end-of-step velocities of the joints alone (``force``/``torque`` as they
     stand, servo rows on, no contacts), then applies ``J^T impulse / h`` of every servo row.
     rows, imp : scratch for the joint rows; vel_pred, angvel_pred : (nbody, 3) scratch;
-    inv_inertia : (nbody, 3, 3) world inverse inertia at ``quat``.
+    inv_inertia : (nbody, 3, 3) world inverse inertia at ``quat``; cache : the joint rows'
+    tree plan (``solvers.tree.make_plan_cache``).
     """
     nj = m.joint_type.shape[0]
     vel_pred[:] = vel
@@ -150,7 +151,7 @@ def stable_servo_forces(m, pos, quat, vel, angvel, drive, h, o_erp, o_cfm, gyros
         njrow = max(njrow, m.joint_row_start[j] + m.joint_row_count[j])
     imp[:njrow] = 0.0
     solve_direct(rows, njrow, m.body_inv_mass, inv_inertia, vel_pred, angvel_pred, imp,
-                 tolerance)
+                 tolerance, cache)
     for j in range(nj):
         if not servo_active(drive, j):
             continue

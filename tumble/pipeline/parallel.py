@@ -4,8 +4,7 @@
 hands each world to a thread (Numba's ``prange``) as a batch of one -- views of that
 world's slice of every state and contact array -- so each world runs exactly the code of
 the serial path and its result is bit-identical to it. The worlds do not share any
-scratch memory (each call of ``step_worlds`` allocates its own, and each world gets its
-own broad-phase buffer).
+scratch memory (each world task makes its own ``StepWork`` and broad-phase buffer).
 
 Failures are reported as by the serial path: the lowest-numbered world that failed
 (diverged, or needs larger buffers) with its step and body, and every world is restored
@@ -22,7 +21,7 @@ from numba.core import types
 from numba.extending import overload
 
 from .joints.rows import joint_coordinates
-from .step import STEP_OK, step_worlds
+from .step import STEP_OK, make_step_work, step_worlds
 
 
 def world_view(t, w):
@@ -85,8 +84,9 @@ def step_worlds_parallel(m, s, con, pairs, n, o):
     con0 = copy_arrays(con)
     out = np.zeros((nw, 4), np.int64)
     for w in prange(nw):
-        status, _, k, b, needed = step_worlds(m, world_view(s, w), world_view(con, w),
-                                              np.empty_like(pairs), n, o)
+        sw, cw = world_view(s, w), world_view(con, w)
+        status, _, k, b, needed = step_worlds(m, sw, cw, np.empty_like(pairs), n, o,
+                                              make_step_work(m, sw, cw, o))
         out[w, 0] = status
         out[w, 1] = k
         out[w, 2] = b

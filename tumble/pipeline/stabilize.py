@@ -15,7 +15,7 @@ from numba import njit
 
 from .._jit import noalloc
 from ..math.quat import quat_exp, quat_mul, quat_normalize
-from .joints.rows import build_joint_rows
+from .joints.rows import build_core_rows
 from .solvers.common import world_inverse_inertia
 from .solvers.direct import assemble, cholesky_apply, cholesky_factor, row_responses
 from .solvers.tree import tree_factor, tree_plan, tree_solve
@@ -77,9 +77,9 @@ def project_joints(m, pos, quat, drive, rows, inv_inertia, iterations, tolerance
 
 @noalloc
 def _largest_core_error(m, pos, quat, drive, rows, idx, n, zero):
-    """Largest position error (m or rad) of the rows ``idx``: with h = 1, ERP = 1 and zero
-    velocities each core row's rhs is minus its error, as ``_project`` measures it."""
-    build_joint_rows(m, pos, quat, zero, zero, drive, 1.0, 1.0, 0.0, rows, False)
+    """Largest position error (m or rad) of the rows ``idx``: the rhs of the core rows
+    built with h = 1, ERP = 1 (``build_core_rows``), as ``_project`` measures it."""
+    build_core_rows(m, pos, quat, rows)
     biggest = 0.0
     for i in range(n):
         biggest = max(biggest, abs(rows.rhs[idx[i]]))
@@ -98,7 +98,7 @@ def _project(m, pos, quat, drive, rows, inv_inertia, iterations, tolerance, idx,
         # with h = 1 and ERP = 1 each core row's rhs is minus its position error (the first
         # iteration's rows are those _largest_core_error has just built)
         if it > 0:
-            build_joint_rows(m, pos, quat, zero, zero, drive, 1.0, 1.0, 0.0, rows, False)
+            build_core_rows(m, pos, quat, rows)
         world_inverse_inertia(m, quat, inv_inertia)
         for i in range(n):
             rows.cfm[idx[i]] = 0.0

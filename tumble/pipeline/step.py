@@ -25,6 +25,7 @@ import numpy as np
 from numba import njit
 
 from .._jit import noalloc
+from ..model.model import STATIC
 from .collide import COLLIDE_OK, COLLIDE_PAIRS_FULL, collide_world
 from .contacts.arrays import ContactArrays, make_contacts_nb
 from .contacts.pairs import ROWS_SPIN, rows_per_contact
@@ -40,6 +41,7 @@ from .solvers.common import make_rows_nb, world_inverse_inertia
 from .solvers.direct import solve_direct
 from .solvers.mlcp import solve_mlcp
 from .solvers.pgs import solve_pgs
+from .solvers.tree import make_plan_cache, plan_capacity
 from .stabilize import project_joints, projection_setup
 
 SOLVER_DIRECT, SOLVER_PGS = 0, 1
@@ -231,19 +233,22 @@ def check_drives(s, ball):
 
 
 @njit(cache=True)
-def solve_rows(m, rows, nrow, njrow, ncon, inv_inertia, vel, angvel, imp, o):
+def solve_rows(m, rows, nrow, njrow, ncon, inv_inertia, vel, angvel, imp, o, caches):
     """Solve joint and contact rows together with the solver the options pick.
 
+    caches : (direct, mlcp) tree-plan caches (``make_solver_caches``).
     Returns 1 when the exact (Lemke) solve failed and PGS stood in, else 0."""
     if o.contact == CONTACT_PGS or (o.solver == SOLVER_PGS and ncon == 0):
         solve_pgs(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp, o.iterations,
                   o.tolerance, o.warm_start)
         return 0
     if ncon == 0 or o.contact == CONTACT_PENALTY:
-        solve_direct(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp, o.tolerance)
+        solve_direct(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp, o.tolerance,
+                     caches[0])
         return 0
     # exact: the mixed LCP by Lemke; if Lemke reports failure, PGS from the warm start
-    status = solve_mlcp(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp, 0)
+    status = solve_mlcp(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp, 0,
+                        caches[1])
     if status != 0:
         solve_pgs(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp, o.iterations,
                   o.tolerance, o.warm_start)
@@ -252,11 +257,143 @@ def solve_rows(m, rows, nrow, njrow, ncon, inv_inertia, vel, angvel, imp, o):
 
 
 @njit(cache=True)
-def step_worlds(m, s, con, pairs, n, o):
+def make_solver_caches(m, servoed, nbody):
+    """Tree-plan caches of the direct solver and of the mixed LCP for one ``step`` call:
+    the joints' (and body servos') rows keep their plan from step to step."""
+    nrow, nfac = plan_capacity(m.joint_parent, m.joint_child, m.joint_row_count, servoed,
+                               m.body_inv_mass, nbody)
+    return (make_plan_cache(nrow, nbody, nfac), make_plan_cache(nrow, nbody, nfac))
+
+
+# Scratch memory of one world's steps, kept by the World between step calls (made by
+# make_step_work; step_worlds checks it still fits with work_fits).
+StepWork = namedtuple("StepWork", [
+    "key",          # (4,) int64: contact capacity, rows, projection on, spin rows
+    "force",        # (nbody, 3) accumulated force, N
+    "torque",       # (nbody, 3) accumulated torque, N m
+    "inv_inertia",  # (nbody, 3, 3) world inverse inertia
+    "rows",         # Rows for joints, body servos and contacts
+    "imp",          # (rows,) impulses handed to the solvers
+    "gpos", "gquat", "aabb_lo", "aabb_hi",   # (ngeom, 3|4) geom poses and boxes
+    "prev",         # ContactArrays: last step's contacts (warm start)
+    "vel_pred", "angvel_pred",               # (nbody, 3) stable PD's prediction
+    "servoed",      # (ns,) int64 bodies with a body servo (6 rows each after the joints')
+    "projection",   # stabilize.projection_setup
+    "caches",       # (direct, mlcp) tree-plan caches (make_solver_caches)
+])
+
+
+@njit(cache=True)
+def make_step_work(m, s, con, o):
+    """Scratch memory for stepping the worlds of ``s`` with options ``o``."""
+    nb = s.body_pos.shape[1]
+    ng = m.geom_type.shape[0]
+    njrow = s.row_impulse.shape[1]
+    cap = con.depth.shape[1]
+    servoed = servoed_bodies(s.body_servo)
+    nfix = njrow + 6 * servoed.shape[0]      # joint rows, then body servo rows, then contacts
+    nper = rows_per_contact(m)               # rows per contact: 3, or 6 with spin friction
+    ncap = nfix + (nper * cap if o.contact != CONTACT_PENALTY else 0)
+    rows = make_rows_nb(ncap)
+    project = njrow > 0 and o.projection > 0
+    key = np.array([cap, ncap, 1 if project else 0, nper], np.int64)
+    return StepWork(key, np.empty((nb, 3)), np.empty((nb, 3)), np.zeros((nb, 3, 3)), rows,
+                    np.zeros(ncap), np.zeros((ng, 3)), np.zeros((ng, 4)), np.zeros((ng, 3)),
+                    np.zeros((ng, 3)), make_contacts_nb(cap), np.empty((nb, 3)),
+                    np.empty((nb, 3)), servoed, projection_setup(m, rows, nb, project),
+                    make_solver_caches(m, servoed, nb))
+
+
+@noalloc
+def work_fits(work, m, s, con, o):
+    """Whether ``work`` (make_step_work) still fits the state, contacts and options."""
+    njrow = s.row_impulse.shape[1]
+    cap = con.depth.shape[1]
+    # the bodies with a servo, in order, must be those the rows were laid out for
+    k = 0
+    ns = work.servoed.shape[0]
+    for b in range(s.body_servo.shape[1]):
+        on = False
+        for w in range(s.body_servo.shape[0]):
+            for c in range(4):
+                if s.body_servo[w, b, c] > 0.0:
+                    on = True
+        if on:
+            if k >= ns or work.servoed[k] != b:
+                return False
+            k += 1
+    if k != ns:
+        return False
+    nfix = njrow + 6 * ns
+    ncap = nfix + (work.key[3] * cap if o.contact != CONTACT_PENALTY else 0)
+    project = njrow > 0 and o.projection > 0
+    return (work.key[0] == cap and work.key[1] == ncap and work.key[2] == (1 if project else 0)
+            and work.rows.rhs.shape[0] == ncap and work.gpos.shape[0] == m.geom_type.shape[0])
+
+
+# What step_checked reports in its first field.
+CALL_STEPPED, CALL_BAD_STATE, CALL_BAD_DRIVE, CALL_NEW_WORK = 0, 1, 2, 3
+
+
+@njit(cache=True)
+def step_checked(m, s, con, pairs, n, o, ball, work):
+    """The whole of ``World.step`` that runs compiled, in one call: check the state
+    (``check_state``) and the drive inputs (``check_drives``; ``ball`` (njoint,) bool marks
+    ball joints), hold static bodies still, feed MJCF position actuators' controls to
+    their joint servos, then ``step_worlds`` with the scratch memory ``work``, and clear
+    the applied forces, torques and joint torques once it has stepped.
+
+    Returns (stage, code, world, index, step, needed): stage CALL_BAD_STATE or
+    CALL_BAD_DRIVE with the check's (code, world, body or joint) and nothing changed;
+    CALL_NEW_WORK when ``work`` does not fit (make it anew and call again); CALL_STEPPED
+    with step_worlds' (status, world, body in index, step, needed).
+    """
+    code, w, b = check_state(s)
+    if code != STATE_OK:
+        return CALL_BAD_STATE, code, w, b, -1, 0
+    code, w, i = check_drives(s, ball)
+    if code != DRIVE_OK:
+        return CALL_BAD_DRIVE, code, w, i, -1, 0
+    if not work_fits(work, m, s, con, o):
+        return CALL_NEW_WORK, 0, -1, -1, -1, 0
+    nw = s.body_pos.shape[0]
+    for b in range(m.body_kind.shape[0]):
+        if m.body_kind[b] == STATIC:
+            for w in range(nw):
+                for k in range(3):
+                    s.body_vel[w, b, k] = 0.0
+                    s.body_angvel[w, b, k] = 0.0
+    fold_position_actuators(m, s)
+    status, fw, fk, fb, needed = step_worlds(m, s, con, pairs, n, o, work)
+    if status == STEP_OK:
+        # applied forces and joint torques last one call
+        s.applied_force[:] = 0.0
+        s.applied_torque[:] = 0.0
+        s.joint_applied[:] = 0.0
+    return CALL_STEPPED, status, fw, fb, fk, needed
+
+
+@noalloc
+def fold_position_actuators(m, s):
+    """MJCF position actuators that run as their joint's servo (``act_folded``): the
+    control, clamped to its range, over the gear is the servo's target; target rate 0."""
+    for a in range(m.act_joint.shape[0]):
+        if not m.act_folded[a]:
+            continue
+        j = m.act_joint[a]
+        for w in range(s.ctrl.shape[0]):
+            c = min(max(s.ctrl[w, a], m.act_ctrlrange[a, 0]), m.act_ctrlrange[a, 1])
+            s.pd_target_q[w, j, 0] = c / m.act_gear[a]
+            s.pd_target_qd[w, j, 0] = 0.0
+
+
+@njit(cache=True)
+def step_worlds(m, s, con, pairs, n, o, work):
     """Advance every world of state ``s`` (contacts ``con``) by ``n`` steps.
 
     m : ModelArrays; s : StateArrays and con : ContactArrays (modified in place);
-    pairs : (P, 2) broad-phase buffer; o : StepOptions.
+    pairs : (P, 2) broad-phase buffer; o : StepOptions; work : StepWork that fits
+    (``make_step_work``, ``work_fits``).
     Returns (status, world, step, body, needed): status STEP_OK; STEP_DIVERGED with where
     the state first became non-finite or ran away; or STEP_MORE_PAIRS / STEP_MORE_CONTACTS
     with the buffer size needed. On any failure ``s`` is restored to its input.
@@ -264,30 +401,20 @@ def step_worlds(m, s, con, pairs, n, o):
     nw, nb = s.body_pos.shape[0], s.body_pos.shape[1]
     ng = m.geom_type.shape[0]
     njrow = s.row_impulse.shape[1]
-    cap = con.depth.shape[1]
     h = o.dt
     backup = (s.body_pos.copy(), s.body_quat.copy(), s.body_vel.copy(), s.body_angvel.copy(),
               s.row_impulse.copy(), s.contact_count.copy())
     con_backup = ContactArrays(con.geom.copy(), con.body.copy(), con.point.copy(),
                                con.normal.copy(), con.depth.copy(), con.feature.copy(),
                                con.friction.copy(), con.restitution.copy(), con.impulse.copy())
-    force = np.empty((nb, 3))
-    torque = np.empty((nb, 3))
-    inv_inertia = np.zeros((nb, 3, 3))
-    servoed = servoed_bodies(s.body_servo)
+    force, torque, inv_inertia, rows, imp = (work.force, work.torque, work.inv_inertia,
+                                             work.rows, work.imp)
+    gpos, gquat, aabb_lo, aabb_hi, prev = (work.gpos, work.gquat, work.aabb_lo, work.aabb_hi,
+                                           work.prev)
+    vel_pred, angvel_pred, servoed = work.vel_pred, work.angvel_pred, work.servoed
+    projection, caches = work.projection, work.caches
     nfix = njrow + 6 * servoed.shape[0]      # joint rows, then body servo rows, then contacts
-    nper = rows_per_contact(m)               # rows per contact: 3, or 6 with spin friction
-    ncap = nfix + (nper * cap if o.contact != CONTACT_PENALTY else 0)
-    rows = make_rows_nb(ncap)
-    imp = np.zeros(ncap)
-    gpos = np.zeros((ng, 3))
-    gquat = np.zeros((ng, 4))
-    aabb_lo = np.zeros((ng, 3))
-    aabb_hi = np.zeros((ng, 3))
-    prev = make_contacts_nb(cap)
-    vel_pred = np.empty((nb, 3))
-    angvel_pred = np.empty((nb, 3))
-    projection = projection_setup(m, rows, nb, njrow > 0 and o.projection > 0)
+    nper = work.key[3]                       # rows per contact: 3, or 6 with spin friction
     status, fail_w, fail_k, fail_b, needed = STEP_OK, -1, -1, -1, 0
     # explicit actuator work only when something could push: a servo off the implicit
     # path, an applied joint torque or an MJCF actuator
@@ -326,7 +453,7 @@ def step_worlds(m, s, con, pairs, n, o):
                 world_inverse_inertia(m, quat, inv_inertia)
                 stable_servo_forces(m, pos, quat, vel, angvel, drive, h, o.erp, o.cfm,
                                     o.gyroscopic, o.tolerance, rows, imp, vel_pred,
-                                    angvel_pred, inv_inertia, force, torque)
+                                    angvel_pred, inv_inertia, force, torque, caches[0])
             if o.contact == CONTACT_PENALTY and ncon > 0:
                 penalty_forces(m, pos, quat, vel, angvel, cw, ncon, o.penalty_k, o.penalty_c,
                                o.v_slip, h, nper == ROWS_SPIN, force, torque)
@@ -348,7 +475,7 @@ def step_worlds(m, s, con, pairs, n, o):
                                        o.bounce_threshold, rows, imp)
                 world_inverse_inertia(m, quat, inv_inertia)
                 s.lcp_fallbacks[w] += solve_rows(m, rows, nrow, nfix, ncon, inv_inertia, vel,
-                                                 angvel, imp, o)
+                                                 angvel, imp, o, caches)
                 if njrow > 0:
                     s.row_impulse[w] = imp[:njrow]
                     joint_reactions(m, pos, quat, rows, s.row_impulse[w], h, s.joint_force[w],

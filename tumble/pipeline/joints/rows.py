@@ -79,12 +79,7 @@ def build_joint_rows(m, pos, quat, vel, angvel, drive, h, erp, cfm, rows, servo_
         t = m.joint_type[j]
         r = m.joint_row_start[j]
         a, b = m.joint_parent[j], m.joint_child[j]
-        if m.joint_stiffness[j] > 0.0 or m.joint_soft_damping[j] > 0.0:
-            e, c = soft_erp_cfm(m.joint_stiffness[j], m.joint_soft_damping[j], h)
-        else:
-            e = m.joint_erp[j] if m.joint_erp[j] >= 0.0 else erp
-            c = m.joint_cfm[j] if m.joint_cfm[j] >= 0.0 else cfm
-        erp_h, cfm_v = e / h, c / h
+        erp_h, cfm_v = _joint_erp_cfm(m, j, h, erp, cfm)
         n, axes, q, linear, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b = joint_dofs(m, pos, quat, j)
         core_rows(m, rows, r, j, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm_v)
         r += m.joint_core_rows[j]
@@ -95,10 +90,7 @@ def build_joint_rows(m, pos, quat, vel, angvel, drive, h, erp, cfm, rows, servo_
                                      or m.joint_twist[j, 0] <= m.joint_twist[j, 1])
         for d in range(n):
             e_ax = axes[d]
-            if swing_twist:
-                _swing_twist_row(m, rows, r, j, d, a, b, frame_a, frame_b, vel, angvel, h,
-                                 erp_h, cfm_v, r_a, r_b)
-            else:
+            if not swing_twist:      # (a cone's or twist's rows: _swing_twist_rows below)
                 qd = _dof_velocity(e_ax, linear, a, b, vel, angvel, r_a, r_b)
                 _limit_row(m, rows, r, j, a, b, e_ax, linear, q[d], qd, h, erp_h, cfm_v, r_a,
                            r_b)
@@ -126,6 +118,48 @@ def build_joint_rows(m, pos, quat, vel, angvel, drive, h, erp, cfm, rows, servo_
             r += ROWS_PER_DOF
         for k in range(r, m.joint_row_start[j] + m.joint_row_count[j]):
             clear_row(rows, k, a, b)
+    # in a pass of their own: inside the loop above, the call alone (taken or not) made
+    # every joint's rows six times slower to build
+    _swing_twist_rows(m, pos, quat, vel, angvel, h, erp, cfm, rows)
+
+
+@noalloc
+def build_core_rows(m, pos, quat, rows):
+    """Write only the core rows of every joint (those that hold it together) with h = 1,
+    ERP = 1 and no CFM: each row's rhs is then minus its position error (m or rad), as
+    projection (``stabilize.py``) wants them."""
+    for j in range(m.joint_type.shape[0]):
+        anchor_a, anchor_b, r_a, r_b, frame_a, frame_b = joint_frames(m, pos, quat, j)
+        core_rows(m, rows, m.joint_row_start[j], j, anchor_a, anchor_b, r_a, r_b, frame_a,
+                  frame_b, 1.0, 0.0)
+
+
+@noalloc
+def _swing_twist_rows(m, pos, quat, vel, angvel, h, erp, cfm, rows):
+    """The limit rows of every ball joint with a swing cone or twist range."""
+    for j in range(m.joint_type.shape[0]):
+        if not (m.joint_type[j] == BALL and (m.joint_cone[j, 0] > 0.0
+                                             or m.joint_twist[j, 0] <= m.joint_twist[j, 1])):
+            continue
+        erp_h, cfm_v = _joint_erp_cfm(m, j, h, erp, cfm)
+        anchor_a, anchor_b, r_a, r_b, frame_a, frame_b = joint_frames(m, pos, quat, j)
+        a, b = m.joint_parent[j], m.joint_child[j]
+        r = m.joint_row_start[j] + m.joint_core_rows[j]
+        for d in range(3):
+            _swing_twist_row(m, rows, r, j, d, a, b, frame_a, frame_b, vel, angvel, h,
+                             erp_h, cfm_v, r_a, r_b)
+            r += ROWS_PER_DOF
+
+
+@njit(cache=True, inline="always")
+def _joint_erp_cfm(m, j, h, erp, cfm):
+    """Joint j's (ERP / h, CFM / h): its spring-damper, its own values or the world's."""
+    if m.joint_stiffness[j] > 0.0 or m.joint_soft_damping[j] > 0.0:
+        e, c = soft_erp_cfm(m.joint_stiffness[j], m.joint_soft_damping[j], h)
+    else:
+        e = m.joint_erp[j] if m.joint_erp[j] >= 0.0 else erp
+        c = m.joint_cfm[j] if m.joint_cfm[j] >= 0.0 else cfm
+    return e / h, c / h
 
 
 @noalloc

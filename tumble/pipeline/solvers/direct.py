@@ -19,7 +19,7 @@ from ..._jit import noalloc
 from .common import (active_rows, apply_impulse, apply_impulses, minv_jt, row_active,
                      row_velocity)
 from .pgs import solve_pgs
-from .tree import tree_factor, tree_plan, tree_solve
+from .tree import cached_tree_plan, make_plan_cache, tree_factor, tree_solve
 
 
 @noalloc
@@ -139,20 +139,31 @@ def row_dot(rows, r, acc):
 
 
 @njit(cache=True)
-def solve_direct(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, tolerance):
+def solve_direct(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, tolerance, cache):
     """Solve the rows exactly; returns the number of active-set iterations, negative if it
     fell back to projected Gauss-Seidel.
 
     rows : Rows; nrow : rows in use; inv_mass (nbody,) 1/kg; inv_inertia (nbody, 3, 3)
-    world frame; vel, angvel (nbody, 3) updated in place; impulse (nrow,) N s out."""
-    return solve_active_set(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse,
-                            tolerance, True)
+    world frame; vel, angvel (nbody, 3) updated in place; impulse (nrow,) N s out;
+    cache : ``tree.make_plan_cache``, the rows' tree plan kept from call to call."""
+    return solve_active_set_cached(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse,
+                                   tolerance, True, cache)
 
 
 @njit(cache=True)
 def solve_active_set(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, tolerance,
                      allow_tree):
-    """``solve_direct``; with ``allow_tree`` False always factorise densely (reference)."""
+    """``solve_direct`` planning afresh; with ``allow_tree`` False always factorise
+    densely (reference)."""
+    cache = make_plan_cache(np.int64(0), np.int64(vel.shape[0]), np.int64(0))
+    return solve_active_set_cached(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse,
+                                   tolerance, allow_tree, cache)
+
+
+@njit(cache=True)
+def solve_active_set_cached(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse,
+                            tolerance, allow_tree, cache):
+    """``solve_active_set`` with the tree plan kept in ``cache``."""
     idx = np.empty(nrow, np.int64)
     where = np.empty(nrow, np.int64)
     n = active_rows(rows, nrow, idx, where, impulse)
@@ -161,7 +172,7 @@ def solve_active_set(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, to
     nbody = vel.shape[0]
     dv = np.zeros((n, 12))
     b = np.zeros(n)
-    tree, plan = tree_plan(rows, idx, n, inv_mass, nbody)
+    tree, plan = cached_tree_plan(cache, rows, idx, n, inv_mass, nbody)
     tree = tree and allow_tree
     nd = 0 if tree else n
     A = np.zeros((nd, nd))

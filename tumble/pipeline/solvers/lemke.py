@@ -495,7 +495,7 @@ def lcp_residual(M, q, z):
     zn = np.empty(n)
     for i in range(n):
         qn[i] = q[i] / scale_q
-        zn[i] = z[i] * (scale_m / scale_q)
+        zn[i] = (z[i] * scale_m) / scale_q   # (not z * (m / q): that is 0 * inf for a tiny q)
         for j in range(n):
             mt[j, i] = M[i, j] / scale_m
     return _residual_normalised(mt, qn, zn, n, np.empty(n))

@@ -17,37 +17,68 @@ Rows (see ``joints/common.py``) fall into four kinds:
 With ``p_N = G z`` the LCP is ``w = M z + q``, ``M = P S G`` plus the pyramid couplings.
 Lemke's answer is exact up to round-off (see ``lemke.py``); the caller falls back to
 PGS when Lemke reports failure, which it never hides.
+
+When the bilateral rows form a tree (a character's joints) they are factorised in linear
+time (``tree.py``), the plan of that factorisation is kept across steps (``PlanCache``),
+and ``S`` comes from the constrained inverse mass of the few bodies the other rows
+touch (``tree_body_inverse``): one 6x6 block per pair of those bodies instead of a path
+per pair of rows. Before any pivoting, last step's contact state is tried as it stands
+(``_guessed_active_set``): pushing contacts sticking, the others apart. Solved with the
+Cholesky factor of ``S`` on those rows, that is the LCP's answer whenever it passes the
+complementarity checks, which is what a resting or walking character mostly meets; a
+few primal-dual corrections handle contacts that come or go, and anything else (a
+sliding contact, redundant contacts) goes to Lemke.
 """
 import numpy as np
 from numba import njit
 
 from ..._jit import noalloc
 from ..joints.common import INF
-from .common import active_rows, apply_impulses, make_rows_nb
-from .direct import assemble, cholesky_apply, cholesky_factor, row_dot, row_responses
-from .lemke import LEMKE_SOLVED, lemke_warm
-from .tree import tree_factor, tree_inverse_mass_rows, tree_plan, tree_solve
+from .common import active_rows, apply_impulses, make_rows_nb, minv_jt, row_velocity
+from .direct import assemble, cholesky_apply, cholesky_factor, row_dot
+from .lemke import LEMKE_SOLVED, lemke, lemke_warm
+from .tree import (cached_tree_plan, make_plan_cache, tree_body_inverse, tree_factor,
+                   tree_solve)
 
 KIND_BILATERAL, KIND_UNILATERAL, KIND_FRICTION, KIND_BOX = 0, 1, 2, 3
 _BIG = 0.5 * INF
+# Feasibility slack of a guessed active set, relative to the problem's scale: a guess is
+# the LCP's solution when every inequality holds to this (then p is exact to round-off).
+_GUESS_TOL = 1e-10
+# Primal-dual corrections of the guess before Lemke takes over.
+_GUESS_ROUNDS = 4
+# A pivot of the guess's Cholesky factor below this times its diagonal entry marks
+# redundant rows (four coplanar contacts of a box): Lemke picks a basis instead.
+_REDUNDANT = 1e-10
 
 
 @njit(cache=True)
-def solve_mlcp(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, max_pivots):
+def solve_mlcp(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, max_pivots, cache):
     """Solve the rows exactly; apply the impulses. Returns Lemke's status (0: solved).
 
-    ``max_pivots`` caps Lemke's pivots (<= 0: ten times the LCP size).
+    ``max_pivots`` caps Lemke's pivots (<= 0: ten times the LCP size). ``cache``
+    (``tree.make_plan_cache``) keeps the bilateral rows' tree plan from step to step.
 
     On failure nothing is applied and ``impulse`` is left as it came (warm start for
     the caller's fallback).
     """
-    return mixed_lcp(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, max_pivots, True)
+    return mixed_lcp_cached(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse,
+                            max_pivots, True, cache)
 
 
 @njit(cache=True)
 def mixed_lcp(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, max_pivots, allow_tree):
-    """``solve_mlcp``; with ``allow_tree`` False the Schur complement is always formed
-    densely (the reference the tree path is tested against)."""
+    """``solve_mlcp`` without a plan kept between calls; with ``allow_tree`` False the Schur
+    complement is always formed densely (the reference the tree path is tested against)."""
+    cache = make_plan_cache(np.int64(0), np.int64(vel.shape[0]), np.int64(0))
+    return mixed_lcp_cached(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse,
+                            max_pivots, allow_tree, cache)
+
+
+@njit(cache=True)
+def mixed_lcp_cached(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, max_pivots,
+                     allow_tree, cache):
+    """``mixed_lcp`` with the tree plan kept in ``cache``."""
     idx = np.empty(nrow, np.int64)
     where = np.empty(nrow, np.int64)             # row -> position among active rows
     # (the impulses stay as they came until Lemke has solved: a scratch copy is zeroed)
@@ -55,10 +86,39 @@ def mixed_lcp(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, max_pivot
     if n == 0:
         return LEMKE_SOLVED
     nbody = vel.shape[0]
-    dv = np.zeros((n, 12))
-    b = np.zeros(n)
-    row_responses(rows, idx, n, inv_mass, inv_inertia, vel, angvel, dv, b)
     kind = np.empty(n, np.int64)
+    nb = _classify(rows, idx, n, kind)
+    bil = np.empty(nb, np.int64)
+    oth = np.empty(n - nb, np.int64)
+    k1 = k2 = 0
+    for i in range(n):
+        if kind[i] == KIND_BILATERAL:
+            bil[k1] = i
+            k1 += 1
+        else:
+            oth[k2] = i
+            k2 += 1
+    nn = n - nb
+    bsel = np.empty(nb, np.int64)
+    for u in range(nb):
+        bsel[u] = idx[bil[u]]
+    if allow_tree and nb > 0:
+        ok, plan = cached_tree_plan(cache, rows, bsel, nb, inv_mass, nbody)
+        if ok:
+            cfm = np.empty(nb)
+            for u in range(nb):
+                cfm[u] = rows.cfm[bsel[u]]
+                plan.use[u] = 1
+            if tree_factor(plan, rows, bsel, cfm, inv_mass, inv_inertia, nbody):
+                return _mlcp_tree(rows, nrow, idx, where, n, kind, bil, nb, oth, nn, bsel, plan,
+                                  inv_mass, inv_inertia, vel, angvel, impulse, max_pivots)
+    return _mlcp_dense(rows, nrow, idx, where, n, kind, bil, nb, oth, nn, inv_mass,
+                       inv_inertia, vel, angvel, impulse, max_pivots)
+
+
+@noalloc
+def _classify(rows, idx, n, kind):
+    """Kind of each active row into ``kind`` (n,); returns the number of bilateral rows."""
     nb = np.int64(0)                 # not a literal: one compilation of its callees
     for i in range(n):
         r = idx[i]
@@ -71,32 +131,354 @@ def mixed_lcp(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, max_pivot
             kind[i] = KIND_UNILATERAL
         else:
             kind[i] = KIND_BOX
-    bil = np.empty(nb, np.int64)
-    oth = np.empty(n - nb, np.int64)
-    k1 = k2 = 0
+    return nb
+
+
+# ------------------------------------------------------------------- the tree path
+
+@njit(cache=True)
+def _mlcp_tree(rows, nrow, idx, where, n, kind, bil, nb, oth, nn, bsel, plan, inv_mass,
+               inv_inertia, vel, angvel, impulse, max_pivots):
+    """The mixed LCP with the bilateral rows factorised over their tree (``plan``).
+
+    One tree solve gives the bilateral rows' response to the current velocities
+    (``u0``, and ``c = b_N - J_N u0``); ``S`` is assembled from the 6x6 blocks of the
+    constrained inverse mass of the bodies the other rows touch; after the LCP a second
+    tree solve adds the response to its impulses ``p_N`` (``u1``), so the bodies'
+    velocities change by ``u0 + u1`` and no row's response needs applying one by one."""
+    nbody = vel.shape[0]
+    nz = 6 * nbody + nb
+    b = np.empty(n)
     for i in range(n):
-        if kind[i] == KIND_BILATERAL:
-            bil[k1] = i
-            k1 += 1
-        else:
-            oth[k2] = i
-            k2 += 1
-    nn = n - nb
-    # Schur complement S = A_NN - A_NB A_BB^-1 A_BN and c = b_N - A_NB A_BB^-1 b_B; the
-    # bilateral impulses follow from the others once Lemke has them
+        r = idx[i]
+        b[i] = rows.rhs[r] - row_velocity(rows, r, vel, angvel)
+    g = np.empty(nb)
+    for u in range(nb):
+        g[u] = b[bil[u]]
+    u0 = np.zeros((nbody, 6))
+    y0 = np.empty(nb)
+    tree_solve(plan, nbody, u0, g, u0, y0)       # f = u0 = 0 on entry
+    # the bodies the other rows touch: in the tree (slot >= 0) or on their own
+    slot = np.full(nbody, -1, np.int64)
+    alone = np.zeros(nbody, np.bool_)
+    cb = np.empty(nbody, np.int64)
+    nc = 0
+    for c in range(nn):
+        r = idx[oth[c]]
+        for side in range(2):
+            body = rows.body_a[r] if side == 0 else rows.body_b[r]
+            if body < 0 or inv_mass[body] <= 0.0:
+                continue
+            if plan.dim[body] == 6:
+                if slot[body] < 0:
+                    slot[body] = nc
+                    cb[nc] = body
+                    nc += 1
+            else:
+                alone[body] = True
+    G = np.empty((nc, nc, 6, 6))
+    if nc > 0:
+        tree_body_inverse(plan, cb, nc, nbody, np.zeros((nc, nz, 6)),
+                          np.zeros((nc, nbody + nb), np.bool_), G)
     S = np.empty((nn, nn))
     cvec = np.empty(nn)
-    bsel = np.empty(nb, np.int64)
+    resp = np.zeros((nn, nc + 1, 6))             # per row: velocity change of each slot
+    dva = np.zeros((nn, 12))                     # M^-1 J^T, for the bodies on their own
+    _schur_blocks(rows, idx, oth, nn, slot, nc, alone, G, inv_mass, inv_inertia, u0, b, resp,
+                  dva, S, cvec)
+    p_n = np.zeros(nn)
+    status = _lcp_on_schur(rows, idx, where, kind, oth, nn, S, cvec, impulse, max_pivots, p_n)
+    if status != LEMKE_SOLVED:
+        return status
+    # the second tree solve: f = J_N^T p_N on the tree's bodies
+    f = np.zeros((nbody, 6))
+    for c in range(nn):
+        pc = p_n[c]
+        if pc == 0.0:
+            continue
+        r = idx[oth[c]]
+        for side in range(2):
+            body = rows.body_a[r] if side == 0 else rows.body_b[r]
+            if body < 0:
+                continue
+            if alone[body]:
+                for k in range(3):
+                    vel[body, k] += dva[c, 6 * side + k] * pc
+                    angvel[body, k] += dva[c, 6 * side + 3 + k] * pc
+            else:
+                for k in range(6):
+                    f[body, k] += rows.J[r, 6 * side + k] * pc
+    y1 = np.empty(nb)
+    g[:] = 0.0
+    tree_solve(plan, nbody, f, g, f, y1)
+    for body in range(nbody):
+        for k in range(3):
+            vel[body, k] += u0[body, k] + f[body, k]
+            angvel[body, k] += u0[body, 3 + k] + f[body, 3 + k]
+    for r in range(nrow):
+        impulse[r] = 0.0
     for u in range(nb):
-        bsel[u] = idx[bil[u]]
-    tree, plan = False, _no_plan(inv_mass)
-    if allow_tree:
-        tree, plan = _schur_tree(rows, idx, bil, nb, oth, nn, bsel, dv, b, inv_mass, inv_inertia,
-                                 nbody, S, cvec)
-    X = np.zeros((0 if tree else nb, nn + 1))     # dense path: A_BB^-1 [A_BN | b_B]
-    if not tree and not _schur_dense(rows, idx, n, bil, nb, oth, nn, inv_mass, inv_inertia,
-                                     vel, angvel, X, S, cvec):
-        return 3
+        impulse[bsel[u]] = -(y0[u] + y1[u])
+    for c in range(nn):
+        impulse[idx[oth[c]]] = p_n[c]
+    return LEMKE_SOLVED
+
+
+@noalloc
+def _schur_blocks(rows, idx, oth, nn, slot, nc, alone, G, inv_mass, inv_inertia, u0, b,
+                  resp, dva, S, cvec):
+    """``S = J_N M_B^-1 J_N^T + C_N`` and ``c = b_N - J_N u0`` from the bodies' blocks
+    ``G``. ``resp[a, s]`` is the velocity change of contact body slot ``s`` per unit
+    impulse of row ``a`` (zero on entry); rows on a body outside the tree use that body's
+    own inverse mass (``dva``)."""
+    for a in range(nn):
+        r = idx[oth[a]]
+        for side in range(2):
+            body = rows.body_a[r] if side == 0 else rows.body_b[r]
+            if body < 0 or inv_mass[body] <= 0.0:
+                continue
+            if alone[body]:
+                minv_jt(rows, r, inv_mass, inv_inertia, dva[a])
+                continue
+            sp = slot[body]
+            o = 6 * side
+            for s in range(nc):
+                for i in range(6):
+                    acc = 0.0
+                    for k in range(6):
+                        acc += G[s, sp, i, k] * rows.J[r, o + k]
+                    resp[a, s, i] += acc
+    for a in range(nn):
+        ra = idx[oth[a]]
+        for bb in range(a + 1):
+            rb = idx[oth[bb]]
+            acc = 0.0
+            for side in range(2):
+                body = rows.body_b[rb] if side else rows.body_a[rb]
+                if body < 0 or inv_mass[body] <= 0.0:
+                    continue
+                o = 6 * side
+                if alone[body]:
+                    for sa in range(2):
+                        other = rows.body_b[ra] if sa else rows.body_a[ra]
+                        if other == body:
+                            for k in range(6):
+                                acc += rows.J[rb, o + k] * dva[a, 6 * sa + k]
+                else:
+                    s = slot[body]
+                    for k in range(6):
+                        acc += rows.J[rb, o + k] * resp[a, s, k]
+            S[a, bb] = acc
+            S[bb, a] = acc
+        S[a, a] += rows.cfm[ra]
+        cvec[a] = b[oth[a]] - row_dot(rows, ra, u0)
+
+
+# ------------------------------------------------------------ the LCP on the complement
+
+@njit(cache=True)
+def _lcp_on_schur(rows, idx, where, kind, oth, nn, S, cvec, impulse, max_pivots, p_n):
+    """Impulses ``p_n`` (nn,) of the non-bilateral rows: ``S p_N - c`` complementary to the
+    rows' bounds. Tries last step's contact state first (``_guessed_active_set``), then
+    Lemke on the friction-pyramid LCP. Returns Lemke's status."""
+    state = np.zeros(nn, np.int64)
+    if _guess_states(rows, idx, where, kind, oth, nn, impulse, state):
+        if _guessed_active_set(rows, idx, where, kind, oth, nn, S, cvec, state, p_n,
+                               np.empty((nn, nn)), np.empty(nn), np.empty(nn),
+                               np.empty(nn, np.int64), np.empty(nn)):
+            return LEMKE_SOLVED
+        return _pyramid_lcp(rows, idx, where, kind, oth, nn, S, cvec, impulse, max_pivots,
+                            False, p_n)
+    return _pyramid_lcp(rows, idx, where, kind, oth, nn, S, cvec, impulse, max_pivots, True,
+                        p_n)
+
+
+# states of a row in a guessed active set
+_ZERO, _EQUAL, _AT_LO, _AT_HI = 0, 1, 2, 3
+
+
+@noalloc
+def _guess_states(rows, idx, where, kind, oth, nn, impulse, state):
+    """Each row's state from last step's impulses: a pushing normal or limit holds
+    (``_EQUAL``), others are zero; a friction row of a pushing contact holds if it
+    carried impulse, else stays zero (sticking contacts of one body are redundant in
+    their tangents, and Lemke's basis keeps only some of them); a box row inside its
+    bounds holds, at a bound it is fixed there. False if some friction group was at its
+    bound (a sliding contact): the guess cannot express it."""
+    for a in range(nn):
+        i = oth[a]
+        r = idx[i]
+        k = kind[i]
+        if k == KIND_UNILATERAL:
+            state[a] = _EQUAL if impulse[r] > 0.0 else _ZERO
+        elif k == KIND_BOX:
+            if impulse[r] >= rows.hi[r] * (1.0 - 1e-9) and rows.hi[r] > 0.0:
+                state[a] = _AT_HI
+            elif impulse[r] <= rows.lo[r] * (1.0 - 1e-9) and rows.lo[r] < 0.0:
+                state[a] = _AT_LO
+            else:
+                state[a] = _EQUAL
+    for a in range(nn):
+        i = oth[a]
+        if kind[i] != KIND_FRICTION:
+            continue
+        r = idx[i]
+        pn = impulse[rows.parent[r]]
+        if pn <= 0.0 or where[rows.parent[r]] < 0:
+            state[a] = _ZERO
+            continue
+        load = 0.0
+        for c in range(nn):
+            rc = idx[oth[c]]
+            if kind[oth[c]] == KIND_FRICTION and (rc == r or (rows.group[r] >= 0
+                                                              and rows.group[rc] == rows.group[r])):
+                load += abs(impulse[rc])
+        if load >= rows.mu[r] * pn * (1.0 - 1e-9):
+            return False
+        state[a] = _EQUAL if impulse[r] != 0.0 else _ZERO
+    return True
+
+
+@noalloc
+def _guessed_active_set(rows, idx, where, kind, oth, nn, S, cvec, state, p, sub, rhs, x,
+                        free, w):
+    """Solve the rows in ``state`` and check complementarity; on failure correct the
+    states (a normal pulling lets go, a row moving into its bound holds) and retry, up
+    to ``_GUESS_ROUNDS`` times. True when ``p`` (nn,) solves the mixed LCP, every
+    inequality holding to ``_GUESS_TOL`` of the problem's scale."""
+    cmax = 1e-300
+    smax = 1e-300
+    for a in range(nn):
+        cmax = max(cmax, abs(cvec[a]))
+        smax = max(smax, abs(S[a, a]))
+    for it in range(_GUESS_ROUNDS):
+        nf = 0
+        for a in range(nn):
+            r = idx[oth[a]]
+            if state[a] == _EQUAL:
+                free[nf] = a
+                nf += 1
+                p[a] = 0.0
+            elif state[a] == _AT_HI:
+                p[a] = rows.hi[r]
+            elif state[a] == _AT_LO:
+                p[a] = rows.lo[r]
+            else:
+                p[a] = 0.0
+        for u in range(nf):
+            a = free[u]
+            s = cvec[a]
+            for c in range(nn):
+                if state[c] == _AT_HI or state[c] == _AT_LO:
+                    s -= S[a, c] * p[c]
+            rhs[u] = s
+            for v in range(nf):
+                sub[u, v] = S[a, free[v]]
+        if not _cholesky_nonredundant(sub, nf):
+            return False
+        cholesky_apply(sub, rhs, nf, x)
+        pmax = 0.0
+        for u in range(nf):
+            p[free[u]] = x[u]
+            pmax = max(pmax, abs(x[u]))
+        for a in range(nn):
+            if state[a] == _EQUAL:
+                w[a] = 0.0
+                continue
+            s = -cvec[a]
+            for c in range(nn):
+                if p[c] != 0.0:
+                    s += S[a, c] * p[c]
+            w[a] = s
+        tol_w = _GUESS_TOL * (cmax + smax * pmax)
+        tol_p = tol_w / smax
+        changed = False
+        for a in range(nn):
+            i = oth[a]
+            r = idx[i]
+            k = kind[i]
+            st = state[a]
+            if k == KIND_UNILATERAL:
+                if st == _EQUAL and p[a] < -tol_p:
+                    state[a] = _ZERO
+                    changed = True
+                elif st == _ZERO and w[a] < -tol_w:
+                    state[a] = _EQUAL
+                    changed = True
+            elif k == KIND_BOX:
+                if st == _EQUAL and p[a] > rows.hi[r] + tol_p:
+                    state[a] = _AT_HI
+                    changed = True
+                elif st == _EQUAL and p[a] < rows.lo[r] - tol_p:
+                    state[a] = _AT_LO
+                    changed = True
+                elif (st == _AT_HI and w[a] > tol_w) or (st == _AT_LO and w[a] < -tol_w):
+                    state[a] = _EQUAL
+                    changed = True
+        # friction: rows of a released normal are zero; a zero row of a holding normal
+        # must not slip (else it holds too); a group outside its pyramid is sliding,
+        # which this method does not do
+        for a in range(nn):
+            i = oth[a]
+            if kind[i] != KIND_FRICTION:
+                continue
+            r = idx[i]
+            pa = where[rows.parent[r]]
+            normal = -1
+            for c in range(nn):
+                if oth[c] == pa:
+                    normal = c
+                    break
+            holding = normal >= 0 and state[normal] == _EQUAL
+            if not holding:
+                if state[a] != _ZERO:
+                    state[a] = _ZERO
+                    changed = True
+            elif state[a] == _ZERO:
+                if abs(w[a]) > tol_w:
+                    state[a] = _EQUAL
+                    changed = True
+            elif not changed:
+                load = 0.0
+                for c in range(nn):
+                    rc = idx[oth[c]]
+                    if kind[oth[c]] == KIND_FRICTION and (
+                            rc == r or (rows.group[r] >= 0 and rows.group[rc] == rows.group[r])):
+                        load += abs(p[c])
+                if load > rows.mu[r] * max(p[normal], 0.0) + tol_p:
+                    return False
+        if not changed:
+            for a in range(nn):
+                if kind[oth[a]] == KIND_UNILATERAL and p[a] < 0.0:
+                    p[a] = 0.0                   # round-off below the slack
+            return True
+    return False
+
+
+@noalloc
+def _cholesky_nonredundant(a, n):
+    """In-place lower Cholesky factor of ``a[:n, :n]`` (the strict upper triangle is left
+    as it was); False when a pivot falls below ``_REDUNDANT`` of its diagonal entry
+    (dependent rows) or the matrix is not positive definite."""
+    for i in range(n):
+        for k in range(i + 1):
+            s = a[i, k]
+            for t in range(k):
+                s -= a[i, t] * a[k, t]
+            if i == k:
+                if not s > _REDUNDANT * a[i, i] or s <= 1e-300:
+                    return False
+                a[i, i] = np.sqrt(s)
+            else:
+                a[i, k] = s / a[k, k]
+    return True
+
+
+@njit(cache=True)
+def _pyramid_lcp(rows, idx, where, kind, oth, nn, S, cvec, impulse, max_pivots, warm, p_n):
+    """Lemke on the friction-pyramid LCP of ``S``, ``c`` (module docstring); with ``warm``
+    last step's active set is tried first (``lemke_warm``). ``p_n`` (nn,) out.
+    Returns Lemke's status."""
     # LCP variables: one per unilateral row, two per friction/box row, one slack per group
     var_row = np.empty(3 * nn, np.int64)       # position in oth
     var_sign = np.zeros(3 * nn)                # +1 / -1 impulse sign; 0 for slacks
@@ -156,29 +538,19 @@ def mixed_lcp(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, max_pivot
                     M[a, c] += rows.mu[r]
                     break
     z = np.zeros(nz)
-    guess = _active_guess(rows, idx, oth, kind, var_row, var_sign, group_of, nz, impulse)
-    status, _ = lemke_warm(M, q, guess, max_pivots if max_pivots > 0 else 10 * (nz + 1),
-                           1e-12, z)
+    pivots = max_pivots if max_pivots > 0 else 10 * (nz + 1)
+    if warm:
+        guess = _active_guess(rows, idx, oth, kind, var_row, var_sign, group_of, nz, impulse)
+        status, _ = lemke_warm(M, q, guess, pivots, 1e-12, z)
+    else:
+        status, _ = lemke(M, q, pivots, 1e-12, z)
     if status != LEMKE_SOLVED:
         return status
-    p = np.zeros(n)
+    for i in range(nn):
+        p_n[i] = 0.0
     for a in range(nz):
         if var_sign[a] != 0.0:
-            p[oth[var_row[a]]] += var_sign[a] * z[a]
-    if tree:
-        _bilateral_tree(plan, rows, idx, n, bil, nb, bsel, dv, b, p, nbody, np.zeros((nbody, 6)),
-                        np.empty(nb), np.empty(nb))
-    else:
-        for u in range(nb):
-            s = X[u, nn]
-            for j in range(nn):
-                s -= X[u, j] * p[oth[j]]
-            p[bil[u]] = s
-    for r in range(nrow):
-        impulse[r] = 0.0
-    for i in range(n):
-        impulse[idx[i]] = p[i]
-    apply_impulses(rows, idx, n, dv, p, vel, angvel)
+            p_n[var_row[a]] += var_sign[a] * z[a]
     return LEMKE_SOLVED
 
 
@@ -210,85 +582,45 @@ def _active_guess(rows, idx, oth, kind, var_row, var_sign, group_of, nz, impulse
     return guess
 
 
-@njit(cache=True)
-def _no_plan(inv_mass):
-    """An empty plan, to give the variable its type when the tree path is not taken."""
-    zero = np.int64(0)          # not a literal: the same compiled tree_plan as the others
-    return tree_plan(make_rows_nb(zero), np.empty(zero, np.int64), zero, inv_mass, zero)[1]
-
+# ------------------------------------------------------------- the dense path (loops)
 
 @njit(cache=True)
-def _schur_tree(rows, idx, bil, nb, oth, nn, bsel, dv, b, inv_mass, inv_inertia, nbody, S,
-                cvec):
-    """The Schur complement with the bilateral rows factorised over their tree (tree.py):
-    ``S = J_N M_B^-1 J_N^T + C_N`` with ``M_B^-1`` the jointed bodies' inverse mass
-    (``tree_inverse_mass_rows``), and ``c = b_N + J_N u`` where ``u = -M^-1 J_B^T A_BB^-1
-    b_B`` is one tree solve. Returns (ok, plan); ok is False when the bilateral rows do not
-    form a tree (or do not factorise)."""
-    cfm = np.empty(nb)
-    for u in range(nb):
-        cfm[u] = rows.cfm[bsel[u]]
-    ok, plan = tree_plan(rows, bsel, nb, inv_mass, nbody)
-    if not ok or not tree_factor(plan, rows, bsel, cfm, inv_mass, inv_inertia, nbody):
-        return False, plan
-    nnode = nbody + nb
-    cols = np.empty(nn, np.int64)
-    dvc = np.empty((nn, 12))
-    for c in range(nn):
-        cols[c] = idx[oth[c]]
-        dvc[c] = dv[oth[c]]
-    tree_inverse_mass_rows(plan, rows, cols, nn, dvc, nbody, np.zeros((nn, 6 * nbody + nb)),
-                           np.zeros((nn, nnode), np.bool_), np.empty((nn, nnode), np.int64),
-                           np.zeros(nn, np.int64), S)
-    _schur_rhs(plan, rows, bil, nb, cols, nn, b, oth, nbody, S, cvec, np.zeros((nbody, 6)),
-               np.empty(nb), np.empty(nb))
-    return True, plan
-
-
-@noalloc
-def _schur_rhs(plan, rows, bil, nb, cols, nn, b, oth, nbody, S, cvec, u, g, y):
-    """CFM on the diagonal of S, and ``c = b_N + J_N u`` with ``K [u; y] = [0; -b_B]``."""
-    for c in range(nn):
-        S[c, c] += rows.cfm[cols[c]]
-    for k in range(nb):
-        g[k] = -b[bil[k]]
-    tree_solve(plan, nbody, u, g, u, y)          # f = u = 0 on entry
-    for c in range(nn):
-        cvec[c] = b[oth[c]] + row_dot(rows, cols[c], u)
-
-
-@noalloc
-def _bilateral_tree(plan, rows, idx, n, bil, nb, bsel, dv, b, p, nbody, acc, g, y):
-    """Bilateral impulses from the others: ``A_BB p_B = b_B - J_B M^-1 J_N^T p_N``, one
-    tree solve (``p`` holds p_N on entry, zero at the bilateral rows)."""
-    acc[:] = 0.0
-    for i in range(n):
-        if p[i] == 0.0:
-            continue
-        r = idx[i]
-        for side in range(2):
-            body = rows.body_a[r] if side == 0 else rows.body_b[r]
-            if body >= 0:
-                for k in range(6):
-                    acc[body, k] += dv[i, 6 * side + k] * p[i]
-    for k in range(nb):
-        g[k] = b[bil[k]] - row_dot(rows, bsel[k], acc)
-    acc[:] = 0.0
-    tree_solve(plan, nbody, acc, g, acc, y)
-    for k in range(nb):
-        p[bil[k]] = -y[k]
-
-
-@njit(cache=True)
-def _schur_dense(rows, idx, n, bil, nb, oth, nn, inv_mass, inv_inertia, vel, angvel, X, S,
-                 cvec):
-    """The Schur complement from the dense ``A`` (loops of joints): one Cholesky
-    factorisation of ``A_BB``, then a solve per column. False if it is not positive
-    definite."""
+def _mlcp_dense(rows, nrow, idx, where, n, kind, bil, nb, oth, nn, inv_mass, inv_inertia,
+                vel, angvel, impulse, max_pivots):
+    """The mixed LCP with the Schur complement from the dense ``A`` (joints in loops)."""
     dv = np.zeros((n, 12))
     A = np.zeros((n, n))
     b = np.zeros(n)
     assemble(rows, idx, n, inv_mass, inv_inertia, vel, angvel, dv, A, b)
+    S = np.empty((nn, nn))
+    cvec = np.empty(nn)
+    X = np.zeros((nb, nn + 1))                  # A_BB^-1 [A_BN | b_B]
+    if not _schur_dense(A, b, bil, nb, oth, nn, X, S, cvec):
+        return 3
+    p_n = np.zeros(nn)
+    status = _lcp_on_schur(rows, idx, where, kind, oth, nn, S, cvec, impulse, max_pivots, p_n)
+    if status != LEMKE_SOLVED:
+        return status
+    p = np.zeros(n)
+    for j in range(nn):
+        p[oth[j]] = p_n[j]
+    for u in range(nb):
+        s = X[u, nn]
+        for j in range(nn):
+            s -= X[u, j] * p_n[j]
+        p[bil[u]] = s
+    for r in range(nrow):
+        impulse[r] = 0.0
+    for i in range(n):
+        impulse[idx[i]] = p[i]
+    apply_impulses(rows, idx, n, dv, p, vel, angvel)
+    return LEMKE_SOLVED
+
+
+@njit(cache=True)
+def _schur_dense(A, b, bil, nb, oth, nn, X, S, cvec):
+    """The Schur complement of ``A``'s bilateral block: one Cholesky factorisation of
+    ``A_BB``, then a solve per column. False if it is not positive definite."""
     Abb = np.empty((nb, nb))
     for u in range(nb):
         for v in range(nb):

@@ -205,11 +205,12 @@ def _joff(rows, r, b):
     return 0 if rows.body_a[r] == b else 6
 
 
-@noalloc
-def _chol(a, off, d, dinv, doff):
+@njit(cache=True, inline="always")
+def _chol_block(a, off, d, dinv, doff):
     """In-place Cholesky of the d x d row-major block at ``a[off:]`` (lower triangle), the
     reciprocals of its diagonal into ``dinv[doff:]`` (multiplying beats dividing in the
     substitutions). False if not positive definite."""
+    ok = True
     for i in range(d):
         for k in range(i + 1):
             s = a[off + i * d + k]
@@ -217,12 +218,62 @@ def _chol(a, off, d, dinv, doff):
                 s -= a[off + i * d + t] * a[off + k * d + t]
             if i == k:
                 if s <= 1e-300:
-                    return False
-                a[off + i * d + i] = np.sqrt(s)
-                dinv[doff + i] = 1.0 / a[off + i * d + i]
+                    ok = False
+                    s = 1.0
+                r = np.sqrt(s)
+                a[off + i * d + i] = r
+                dinv[doff + i] = 1.0 / r
             else:
                 a[off + i * d + k] = s * dinv[doff + k]
-    return True
+    return ok
+
+
+@njit(cache=True, inline="always")
+def _eliminate_block(fac, lo, d, dinv, di, wm, wo, dp, op):
+    """``W = L^-1 K`` in place (``wm[wo:]``, d x dp, K on entry) with the factor at
+    ``fac[lo:]``, then ``P_parent += W^T W`` (the dp x dp block at ``fac[op:]``)."""
+    for i in range(d):
+        inv = dinv[di + i]
+        for k in range(i):
+            el = fac[lo + i * d + k]
+            for c in range(dp):
+                wm[wo + i * dp + c] -= el * wm[wo + k * dp + c]
+        for c in range(dp):
+            wm[wo + i * dp + c] *= inv
+    for i in range(d):
+        for a in range(dp):
+            x = wm[wo + i * dp + a]
+            for c in range(dp):
+                fac[op + a * dp + c] += x * wm[wo + i * dp + c]
+
+
+@njit(cache=True, inline="always")
+def _forward_node(z, o, d, fac, lo, dinv, wm, wo, dp, op, sign):
+    """``z_u <- L_u^-1 z_u``, then ``z_parent -= sign W_u^T z_u`` (dp = 0: no parent)."""
+    for i in range(d):
+        s = z[o + i]
+        for k in range(i):
+            s -= fac[lo + i * d + k] * z[o + k]
+        z[o + i] = s * dinv[o + i]
+    for i in range(d):
+        x = sign * z[o + i]
+        for c in range(dp):
+            z[op + c] -= wm[wo + i * dp + c] * x
+
+
+@njit(cache=True, inline="always")
+def _backward_node(z, o, d, fac, lo, dinv, wm, wo, dp, op):
+    """``z_u <- L_u^-T (z_u - W_u z_parent)`` (dp = 0: no parent)."""
+    for i in range(d):
+        s = 0.0
+        for c in range(dp):
+            s += wm[wo + i * dp + c] * z[op + c]
+        z[o + i] -= s
+    for i in range(d - 1, -1, -1):
+        s = z[o + i]
+        for k in range(i + 1, d):
+            s -= fac[lo + k * d + i] * z[o + k]
+        z[o + i] = s * dinv[o + i]
 
 
 @njit(cache=True, inline="always")
@@ -307,14 +358,17 @@ def tree_factor(plan, rows, sel, cfm, inv_mass, inv_inertia, nbody):
                     fac[o + k * d + k] = cfm[i]
                     k += 1
     # eliminate children first: P_u = L L^T, W = L^-1 K_u,parent, P_parent += W^T W
-    wm = plan.wmat
+    # (blocks of six, a body's and most joints', get kernels compiled for that size)
+    wm, dinv = plan.wmat, plan.dinv
     for t in range(norder - 1, -1, -1):
         u = plan.order[t]
         d = dim[u]
         if d == 0:
             continue
         lo = foff[u]
-        if not _chol(fac, lo, d, plan.dinv, zoff[u]):
+        di = zoff[u]
+        ok = _chol_block(fac, lo, 6, dinv, di) if d == 6 else _chol_block(fac, lo, d, dinv, di)
+        if not ok:
             return False
         pa = plan.eparent[u]
         if pa < 0:
@@ -322,23 +376,10 @@ def tree_factor(plan, rows, sel, cfm, inv_mass, inv_inertia, nbody):
         dp = dim[pa]
         wo = plan.w_off[u]
         _coupling(plan, rows, sel, u, pa, nbody, wm, wo, dp)
-        di = zoff[u]
-        for i in range(d):
-            inv = plan.dinv[di + i]
-            for c in range(dp):
-                s = wm[wo + i * dp + c]
-                for k in range(i):
-                    s -= fac[lo + i * d + k] * wm[wo + k * dp + c]
-                wm[wo + i * dp + c] = s * inv
-        op = foff[pa]
-        for a in range(dp):
-            for c in range(a + 1):
-                s = 0.0
-                for i in range(d):
-                    s += wm[wo + i * dp + a] * wm[wo + i * dp + c]
-                fac[op + a * dp + c] += s
-                if c != a:
-                    fac[op + c * dp + a] += s
+        if d == 6 and dp == 6:
+            _eliminate_block(fac, lo, 6, dinv, di, wm, wo, 6, foff[pa])
+        else:
+            _eliminate_block(fac, lo, d, dinv, di, wm, wo, dp, foff[pa])
     return True
 
 
@@ -391,49 +432,29 @@ def tree_solve(plan, nbody, f, g, u_out, y_out):
         d = dim[u]
         if d == 0:
             continue
-        o = zoff[u]
-        lo = foff[u]
-        for i in range(d):
-            s = z[o + i]
-            for k in range(i):
-                s -= fac[lo + i * d + k] * z[o + k]
-            z[o + i] = s * dinv[o + i]
         pa = plan.eparent[u]
-        if pa < 0:
-            continue
-        dp = dim[pa]
-        op = zoff[pa]
-        wo = plan.w_off[u]
+        dp = dim[pa] if pa >= 0 else 0
+        op = zoff[pa] if pa >= 0 else 0
         sign = 1.0 if u < nbody else -1.0
-        for c in range(dp):
-            s = 0.0
-            for i in range(d):
-                s += wm[wo + i * dp + c] * z[o + i]
-            z[op + c] -= sign * s
+        if d == 6 and dp == 6:
+            _forward_node(z, zoff[u], 6, fac, foff[u], dinv, wm, plan.w_off[u], 6, op, sign)
+        else:
+            _forward_node(z, zoff[u], d, fac, foff[u], dinv, wm, plan.w_off[u], dp, op, sign)
     # backward, parents first: x_u = s_u L_u^-T (z_u - W_u x_parent)
     for t in range(norder):
         u = plan.order[t]
         d = dim[u]
         if d == 0:
             continue
-        o = zoff[u]
-        lo = foff[u]
         pa = plan.eparent[u]
-        if pa >= 0:
-            dp = dim[pa]
-            op = zoff[pa]
-            wo = plan.w_off[u]
-            for i in range(d):
-                s = 0.0
-                for c in range(dp):
-                    s += wm[wo + i * dp + c] * z[op + c]
-                z[o + i] -= s
-        for i in range(d - 1, -1, -1):
-            s = z[o + i]
-            for k in range(i + 1, d):
-                s -= fac[lo + k * d + i] * z[o + k]
-            z[o + i] = s * dinv[o + i]
+        dp = dim[pa] if pa >= 0 else 0
+        op = zoff[pa] if pa >= 0 else 0
+        if d == 6 and dp == 6:
+            _backward_node(z, zoff[u], 6, fac, foff[u], dinv, wm, plan.w_off[u], 6, op)
+        else:
+            _backward_node(z, zoff[u], d, fac, foff[u], dinv, wm, plan.w_off[u], dp, op)
         if u >= nbody:
+            o = zoff[u]
             for i in range(d):
                 z[o + i] = -z[o + i]
     for b in range(nbody):
@@ -541,3 +562,196 @@ def tree_inverse_mass_rows(plan, rows, cols, ncol, dv, nbody, zc, member, path, 
             member[a, u] = False
             for k in range(dim[u]):
                 zc[a, zoff[u] + k] = 0.0
+
+
+# ------------------------------------------------------------------ plans kept across steps
+
+# A plan made once and reused while the same rows are factorised step after step (the
+# joints of a character): ``plan`` has room for ``capacity`` rows; ``key`` (3, capacity)
+# holds the planned rows and their two bodies; ``meta`` [rows planned (-1: none), the
+# plan's ok flag].
+PlanCache = namedtuple("PlanCache", ["plan", "key", "meta"])
+
+
+@njit(cache=True)
+def make_plan_cache(capacity, nbody, fac_capacity):
+    """An empty cache for plans of up to ``capacity`` rows over ``nbody`` bodies whose
+    factors take up to ``fac_capacity`` numbers (``plan_capacity``). With capacity 0 it
+    never holds a plan: ``cached_tree_plan`` then plans afresh every call."""
+    cap = max(capacity, 1)
+    nnode = nbody + cap
+    plan = TreePlan(np.zeros(3, np.int64), np.zeros(cap, np.int64), np.zeros(cap + 1, np.int64),
+                    np.full((cap, 2), -1, np.int64), np.zeros(nnode, np.int64),
+                    np.full(nnode, -1, np.int64), np.full(nnode, -1, np.int64),
+                    np.zeros(nnode, np.int64), np.zeros(nnode, np.int64),
+                    np.zeros(nnode, np.int64), np.zeros(max(fac_capacity, 1)),
+                    np.zeros(nnode, np.int64), np.zeros(12 * cap), np.full(nnode, -1, np.int64),
+                    np.full(cap, -1, np.int64), np.ones(cap, np.int64),
+                    np.zeros(6 * nbody + cap), np.zeros(6 * nbody + cap))
+    meta = np.array([-1, 0, capacity, fac_capacity], np.int64)
+    return PlanCache(plan, np.full((3, cap), -1, np.int64), meta)
+
+
+@njit(cache=True)
+def plan_capacity(joint_parent, joint_child, joint_row_count, servoed, inv_mass, nbody):
+    """Room a plan needs for any subset of the rows of these joints and of six-row body
+    servos on the bodies ``servoed``: (rows, factor entries). Rows between the same two
+    bodies share one block, so the factor needs ``36 nbody + sum of block sizes^2``."""
+    nj = joint_parent.shape[0]
+    keys = np.empty(nj + servoed.shape[0], np.int64)
+    sizes = np.empty(nj + servoed.shape[0], np.int64)
+    nkey = 0
+    nrow = 0
+    for k in range(nj + servoed.shape[0]):
+        if k < nj:
+            a, b, count = _dyn(joint_parent[k], inv_mass), _dyn(joint_child[k], inv_mass), joint_row_count[k]
+        else:
+            a, b, count = _dyn(servoed[k - nj], inv_mass), -1, 6
+        a = nbody if a < 0 else a
+        b = nbody if b < 0 else b
+        key = min(a, b) * (nbody + 1) + max(a, b)
+        nrow += count
+        found = False
+        for t in range(nkey):
+            if keys[t] == key:
+                sizes[t] += count
+                found = True
+                break
+        if not found:
+            keys[nkey] = key
+            sizes[nkey] = count
+            nkey += 1
+    fac = 36 * nbody
+    for t in range(nkey):
+        fac += sizes[t] * sizes[t]
+    return nrow, fac
+
+
+@njit(cache=True)
+def cached_tree_plan(cache, rows, sel, n, inv_mass, nbody):
+    """``tree_plan`` for the rows ``sel[:n]``, remembered in ``cache``: while the same rows
+    (with the same bodies) come back, the plan is reused as it is. Returns (ok, plan): the
+    cache's plan, or a fresh one when the rows do not fit in it."""
+    key, meta, plan = cache.key, cache.meta, cache.plan
+    if meta[0] == n and n <= key.shape[1]:
+        same = True
+        for i in range(n):
+            r = sel[i]
+            if key[0, i] != r or key[1, i] != rows.body_a[r] or key[2, i] != rows.body_b[r]:
+                same = False
+                break
+        if same:
+            return meta[1] == 1, plan
+    ok, fresh = tree_plan(rows, sel, n, inv_mass, nbody)
+    if n > meta[2] or fresh.fac.shape[0] > plan.fac.shape[0] or fresh.z.shape[0] > plan.z.shape[0]:
+        return ok, fresh
+    for i in range(3):
+        plan.meta[i] = fresh.meta[i]
+    _copy_into(fresh.pair_rows, plan.pair_rows)
+    _copy_into(fresh.pair_start, plan.pair_start)
+    for i in range(fresh.pair_body.shape[0]):
+        plan.pair_body[i, 0], plan.pair_body[i, 1] = fresh.pair_body[i, 0], fresh.pair_body[i, 1]
+    _copy_into(fresh.order, plan.order)
+    _copy_into(fresh.opos, plan.opos)
+    _copy_into(fresh.parent, plan.parent)
+    _copy_into(fresh.dim, plan.dim)
+    _copy_into(fresh.eparent, plan.eparent)
+    _copy_into(fresh.use, plan.use)
+    for i in range(n):
+        r = sel[i]
+        key[0, i], key[1, i], key[2, i] = r, rows.body_a[r], rows.body_b[r]
+    meta[0] = n
+    meta[1] = 1 if ok else 0
+    return ok, plan
+
+
+@noalloc
+def _copy_into(src, dst):
+    """dst[:len(src)] = src (the cache's arrays are at least as long)."""
+    for i in range(src.shape[0]):
+        dst[i] = src[i]
+
+
+# ----------------------------------------------- inverse mass of a few bodies of the tree
+
+@njit(cache=True, inline="always")
+def _forward_columns(h, o, d, fac, lo, dinv, wm, wo, dp, op, sign):
+    """``_forward_node`` on the six columns of ``h`` (z positions, 6)."""
+    for i in range(d):
+        inv = dinv[o + i]
+        for k in range(i):
+            el = fac[lo + i * d + k]
+            for c in range(6):
+                h[o + i, c] -= el * h[o + k, c]
+        for c in range(6):
+            h[o + i, c] *= inv
+    for i in range(d):
+        for e in range(dp):
+            x = sign * wm[wo + i * dp + e]
+            for c in range(6):
+                h[op + e, c] -= x * h[o + i, c]
+
+
+@noalloc
+def tree_body_inverse(plan, bodies, nc, nbody, H, member, G):
+    """6x6 blocks ``G[c, d]`` of ``M_B^-1`` (the constrained inverse mass, top-left block of
+    ``K^-1``) between the bodies ``bodies[:nc]``, all in the tree: the velocity change
+    [linear, angular] of body ``bodies[c]`` per unit impulse [force, torque] on body
+    ``bodies[d]`` with every factorised row holding.
+
+    As in ``tree_inverse_mass_rows``, ``f_a^T K^-1 f_b = sum_u s_u h_a,u . h_b,u`` with
+    ``h = L^-1 f``; here the columns are the six unit impulses on each body, nonzero only
+    on the body's path to its root, and a pair of bodies sums over the path they share.
+    Work arrays: H (nc, 6 nbody + rows, 6) float64 zero on entry and left zero;
+    member (nc, nbody + rows) bool, False on entry and left False. G (nc, nc, 6, 6) out.
+    """
+    dim, zoff, foff, fac, wm, dinv = plan.dim, plan.z_off, plan.fac_off, plan.fac, plan.wmat, plan.dinv
+    for a in range(nc):
+        b = bodies[a]
+        o = zoff[b]
+        for k in range(6):
+            H[a, o + k, k] = 1.0
+        u = b
+        while u >= 0:
+            member[a, u] = True
+            d = dim[u]
+            pa = plan.eparent[u]
+            dp = dim[pa] if pa >= 0 else 0
+            op = zoff[pa] if pa >= 0 else 0
+            sign = 1.0 if u < nbody else -1.0
+            if d == 6 and dp == 6:
+                _forward_columns(H[a], zoff[u], 6, fac, foff[u], dinv, wm, plan.w_off[u], 6, op,
+                                 sign)
+            else:
+                _forward_columns(H[a], zoff[u], d, fac, foff[u], dinv, wm, plan.w_off[u], dp, op,
+                                 sign)
+            u = pa
+    for a in range(nc):
+        for bb in range(a + 1):
+            for i in range(6):
+                for k in range(6):
+                    G[a, bb, i, k] = 0.0
+            u = bodies[a]
+            while u >= 0:
+                if member[bb, u]:
+                    o = zoff[u]
+                    sign = 1.0 if u < nbody else -1.0
+                    for e in range(dim[u]):
+                        for i in range(6):
+                            x = sign * H[a, o + e, i]
+                            for k in range(6):
+                                G[a, bb, i, k] += x * H[bb, o + e, k]
+                u = plan.eparent[u]
+            if bb != a:
+                for i in range(6):
+                    for k in range(6):
+                        G[bb, a, k, i] = G[a, bb, i, k]
+    for a in range(nc):
+        u = bodies[a]
+        while u >= 0:
+            member[a, u] = False
+            o = zoff[u]
+            for e in range(dim[u]):
+                for c in range(6):
+                    H[a, o + e, c] = 0.0
+            u = plan.eparent[u]
