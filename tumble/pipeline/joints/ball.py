@@ -38,9 +38,8 @@ from .common import point_rows
 
 
 @noalloc
-def core_rows(m, rows, r, j, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm):
-    point_rows(rows, r, m.joint_parent[j], m.joint_child[j], anchor_a, anchor_b, r_a, r_b,
-               erp_h, cfm)
+def core_rows(rows, r, a, b, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm):
+    point_rows(rows, r, a, b, anchor_a, anchor_b, r_a, r_b, erp_h, cfm)
 
 
 @noalloc

@@ -14,8 +14,7 @@ def angular_lock_rows(rows, r, a, b, frame_a, frame_b, erp_h, cfm):
 
 
 @noalloc
-def core_rows(m, rows, r, j, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm):
-    a, b = m.joint_parent[j], m.joint_child[j]
+def core_rows(rows, r, a, b, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm):
     point_rows(rows, r, a, b, anchor_a, anchor_b, r_a, r_b, erp_h, cfm)
     angular_lock_rows(rows, r + 3, a, b, frame_a, frame_b, erp_h, cfm)
 

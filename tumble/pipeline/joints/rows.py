@@ -52,19 +52,21 @@ def joint_dofs(m, pos, quat, j):
 
 
 @noalloc
-def core_rows(m, rows, r, j, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm):
-    """Write joint j's core rows (those that hold it together) from row ``r`` on."""
-    t = m.joint_type[j]
+def core_rows(t, rows, r, a, b, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm):
+    """Write the core rows (those that hold it together) of a joint of type ``t`` between
+    bodies ``a`` and ``b`` from row ``r`` on. (No model argument: handing the model's
+    fifty arrays to this call for every joint cost more than writing the rows.)"""
     if t == BALL:
-        ball.core_rows(m, rows, r, j, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm)
+        ball.core_rows(rows, r, a, b, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm)
     elif t == HINGE:
-        hinge.core_rows(m, rows, r, j, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm)
+        hinge.core_rows(rows, r, a, b, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm)
     elif t == UNIVERSAL:
-        universal.core_rows(m, rows, r, j, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm)
+        universal.core_rows(rows, r, a, b, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h,
+                            cfm)
     elif t == FIXED:
-        fixed.core_rows(m, rows, r, j, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm)
+        fixed.core_rows(rows, r, a, b, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm)
     elif t == SLIDER:
-        slider.core_rows(m, rows, r, j, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm)
+        slider.core_rows(rows, r, a, b, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm)
 
 
 @noalloc
@@ -81,7 +83,8 @@ def build_joint_rows(m, pos, quat, vel, angvel, drive, h, erp, cfm, rows, servo_
         a, b = m.joint_parent[j], m.joint_child[j]
         erp_h, cfm_v = _joint_erp_cfm(m, j, h, erp, cfm)
         n, axes, q, linear, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b = joint_dofs(m, pos, quat, j)
-        core_rows(m, rows, r, j, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm_v)
+        core_rows(t, rows, r, a, b, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h,
+                  cfm_v)
         r += m.joint_core_rows[j]
         servo = servo_rows and servo_active(drive, j)
         if servo:
@@ -92,8 +95,8 @@ def build_joint_rows(m, pos, quat, vel, angvel, drive, h, erp, cfm, rows, servo_
             e_ax = axes[d]
             if not swing_twist:      # (a cone's or twist's rows: _swing_twist_rows below)
                 qd = _dof_velocity(e_ax, linear, a, b, vel, angvel, r_a, r_b)
-                _limit_row(m, rows, r, j, a, b, e_ax, linear, q[d], qd, h, erp_h, cfm_v, r_a,
-                           r_b)
+                _limit_row(rows, r, m.joint_limit[j, 0], m.joint_limit[j, 1], a, b, e_ax, linear,
+                           q[d], qd, h, erp_h, cfm_v, r_a, r_b)
             if servo:
                 rhs, cfm_s = servo_row_terms(drive.kp[j], drive.kd[j], h, err[d],
                                              drive.target_qd[j, d])
@@ -130,8 +133,8 @@ def build_core_rows(m, pos, quat, rows):
     projection (``stabilize.py``) wants them."""
     for j in range(m.joint_type.shape[0]):
         anchor_a, anchor_b, r_a, r_b, frame_a, frame_b = joint_frames(m, pos, quat, j)
-        core_rows(m, rows, m.joint_row_start[j], j, anchor_a, anchor_b, r_a, r_b, frame_a,
-                  frame_b, 1.0, 0.0)
+        core_rows(m.joint_type[j], rows, m.joint_row_start[j], m.joint_parent[j],
+                  m.joint_child[j], anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, 1.0, 0.0)
 
 
 @noalloc
@@ -197,9 +200,9 @@ def _dof_row(rows, r, a, b, e, linear, r_a, r_b, rhs, cfm, bound):
 
 
 @noalloc
-def _limit_row(m, rows, r, j, a, b, e, linear, q, qd, h, erp_h, cfm, r_a, r_b):
-    """A one-sided row when the coordinate is past a limit or would cross it this step."""
-    lo, hi = m.joint_limit[j, 0], m.joint_limit[j, 1]
+def _limit_row(rows, r, lo, hi, a, b, e, linear, q, qd, h, erp_h, cfm, r_a, r_b):
+    """A one-sided row when the coordinate is past the limit [lo, hi] or would cross it
+    this step."""
     if lo > hi:                    # no limit
         clear_row(rows, r, a, b)
         return

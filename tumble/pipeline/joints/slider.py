@@ -6,8 +6,7 @@ from .fixed import angular_lock_rows
 
 
 @noalloc
-def core_rows(m, rows, r, j, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm):
-    a, b = m.joint_parent[j], m.joint_child[j]
+def core_rows(rows, r, a, b, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm):
     angular_lock_rows(rows, r, a, b, frame_a, frame_b, erp_h, cfm)
     d = (anchor_b[0] - anchor_a[0], anchor_b[1] - anchor_a[1], anchor_b[2] - anchor_a[2])
     for k in range(2):

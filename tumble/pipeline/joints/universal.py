@@ -10,8 +10,7 @@ from .common import INF, angular_row, point_rows
 
 
 @noalloc
-def core_rows(m, rows, r, j, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm):
-    a, b = m.joint_parent[j], m.joint_child[j]
+def core_rows(rows, r, a, b, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp_h, cfm):
     point_rows(rows, r, a, b, anchor_a, anchor_b, r_a, r_b, erp_h, cfm)
     a1 = quat_rotate(frame_a, (1.0, 0.0, 0.0))
     a2 = quat_rotate(frame_b, (0.0, 1.0, 0.0))

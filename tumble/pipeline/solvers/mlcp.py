@@ -145,9 +145,10 @@ def _mlcp_tree(rows, nrow, idx, where, n, kind, bil, nb, oth, nn, bsel, plan, in
     (``u0``, and ``c = b_N - J_N u0``); ``S`` is assembled from the 6x6 blocks of the
     constrained inverse mass of the bodies the other rows touch; after the LCP a second
     tree solve adds the response to its impulses ``p_N`` (``u1``), so the bodies'
-    velocities change by ``u0 + u1`` and no row's response needs applying one by one."""
+    velocities change by ``u0 + u1`` and no row's response needs applying one by one.
+    Last step's contact state is tried first on the rows it holds alone
+    (``_guess_on_tree``); only if that fails is ``S`` made for every row."""
     nbody = vel.shape[0]
-    nz = 6 * nbody + nb
     b = np.empty(n)
     for i in range(n):
         r = idx[i]
@@ -158,13 +159,56 @@ def _mlcp_tree(rows, nrow, idx, where, n, kind, bil, nb, oth, nn, bsel, plan, in
     u0 = np.zeros((nbody, 6))
     y0 = np.empty(nb)
     tree_solve(plan, nbody, u0, g, u0, y0)       # f = u0 = 0 on entry
-    # the bodies the other rows touch: in the tree (slot >= 0) or on their own
+    state = np.zeros(nn, np.int64)
+    p_n = np.zeros(nn)
+    vn = np.empty((nbody, 6))
+    y1 = np.empty(nb)
+    sub = np.empty(nn, np.int64)
+    guessed = _guess_states(rows, idx, where, kind, oth, nn, impulse, state)
+    if guessed:
+        ns = 0
+        for a in range(nn):
+            if state[a] != _ZERO:
+                sub[ns] = a
+                ns += 1
+        if _guess_on_tree(rows, idx, where, kind, oth, nn, sub, ns, state, b, plan, nb,
+                          inv_mass, inv_inertia, vel, angvel, u0, p_n, vn, y1):
+            _finish(rows, nrow, idx, oth, nn, bsel, nb, y0, y1, p_n, vn, vel, angvel, impulse)
+            return LEMKE_SOLVED
+    for a in range(nn):
+        sub[a] = a
+    S, cvec, slot, alone, dva = _complement(rows, idx, oth, sub, nn, b, plan, nb, inv_mass,
+                                            inv_inertia, u0)
+    if guessed:
+        if _guessed_active_set(rows, idx, where, kind, oth, nn, S, cvec, state, p_n,
+                               np.empty((nn, nn)), np.empty(nn), np.empty(nn),
+                               np.empty(nn, np.int64), np.empty(nn)):
+            status = LEMKE_SOLVED
+        else:
+            status = _pyramid_lcp(rows, idx, where, kind, oth, nn, S, cvec, impulse,
+                                  max_pivots, False, p_n)
+    else:
+        status = _pyramid_lcp(rows, idx, where, kind, oth, nn, S, cvec, impulse, max_pivots,
+                              True, p_n)
+    if status != LEMKE_SOLVED:
+        return status
+    _respond(rows, idx, oth, sub, nn, p_n, plan, nb, slot, alone, dva, vel, angvel, u0, vn, y1)
+    _finish(rows, nrow, idx, oth, nn, bsel, nb, y0, y1, p_n, vn, vel, angvel, impulse)
+    return LEMKE_SOLVED
+
+
+@njit(cache=True)
+def _complement(rows, idx, oth, sub, ns, b, plan, nb, inv_mass, inv_inertia, u0):
+    """``S`` and ``c`` of the non-bilateral rows ``oth[sub[:ns]]``: the bodies they touch,
+    in the tree (``slot`` >= 0) or on their own (``alone``), those bodies' blocks of the
+    constrained inverse mass, then ``_schur_blocks``. Returns (S, c, slot, alone, dva)."""
+    nbody = u0.shape[0]
     slot = np.full(nbody, -1, np.int64)
     alone = np.zeros(nbody, np.bool_)
     cb = np.empty(nbody, np.int64)
     nc = 0
-    for c in range(nn):
-        r = idx[oth[c]]
+    for t in range(ns):
+        r = idx[oth[sub[t]]]
         for side in range(2):
             body = rows.body_a[r] if side == 0 else rows.body_b[r]
             if body < 0 or inv_mass[body] <= 0.0:
@@ -178,80 +222,220 @@ def _mlcp_tree(rows, nrow, idx, where, n, kind, bil, nb, oth, nn, bsel, plan, in
                 alone[body] = True
     G = np.empty((nc, nc, 6, 6))
     if nc > 0:
-        tree_body_inverse(plan, cb, nc, nbody, np.zeros((nc, nz, 6)),
+        tree_body_inverse(plan, cb, nc, nbody, np.zeros((nc, 6 * nbody + nb, 6)),
                           np.zeros((nc, nbody + nb), np.bool_), G)
-    S = np.empty((nn, nn))
-    cvec = np.empty(nn)
-    resp = np.zeros((nn, nc + 1, 6))             # per row: velocity change of each slot
-    dva = np.zeros((nn, 12))                     # M^-1 J^T, for the bodies on their own
-    _schur_blocks(rows, idx, oth, nn, slot, nc, alone, G, inv_mass, inv_inertia, u0, b, resp,
-                  dva, S, cvec)
-    p_n = np.zeros(nn)
-    status = _lcp_on_schur(rows, idx, where, kind, oth, nn, S, cvec, impulse, max_pivots, p_n)
-    if status != LEMKE_SOLVED:
-        return status
-    # the second tree solve: f = J_N^T p_N on the tree's bodies
-    f = np.zeros((nbody, 6))
-    for c in range(nn):
-        pc = p_n[c]
-        if pc == 0.0:
+    S = np.empty((ns, ns))
+    cvec = np.empty(ns)
+    dva = np.zeros((ns, 12))                     # M^-1 J^T, for the bodies on their own
+    _schur_blocks(rows, idx, oth, sub, ns, slot, nc, alone, G, inv_mass, inv_inertia, u0, b,
+                  np.zeros((ns, nc + 1, 6)), dva, S, cvec)
+    return S, cvec, slot, alone, dva
+
+
+@noalloc
+def _respond(rows, idx, oth, sub, ns, p, plan, nb, slot, alone, dva, vel, angvel, u0, vn, y1):
+    """The second tree solve: the bodies' velocities ``vn`` (nbody, 6) [linear, angular]
+    once the rows ``oth[sub[:ns]]`` push with ``p`` (indexed like ``oth``) and the
+    bilateral rows answer (their part in ``y1``, ``y = -p``); ``u0`` is the bilateral
+    response to the velocities before."""
+    nbody = vel.shape[0]
+    for body in range(nbody):
+        for k in range(6):
+            vn[body, k] = 0.0
+    for t in range(ns):
+        a = sub[t]
+        pa = p[a]
+        if pa == 0.0:
             continue
-        r = idx[oth[c]]
+        r = idx[oth[a]]
         for side in range(2):
-            body = rows.body_a[r] if side == 0 else rows.body_b[r]
-            if body < 0:
-                continue
-            if alone[body]:
-                for k in range(3):
-                    vel[body, k] += dva[c, 6 * side + k] * pc
-                    angvel[body, k] += dva[c, 6 * side + 3 + k] * pc
-            else:
+            body = rows.body_b[r] if side else rows.body_a[r]
+            if body >= 0 and not alone[body]:
                 for k in range(6):
-                    f[body, k] += rows.J[r, 6 * side + k] * pc
-    y1 = np.empty(nb)
-    g[:] = 0.0
-    tree_solve(plan, nbody, f, g, f, y1)
+                    vn[body, k] += rows.J[r, 6 * side + k] * pa
+    for u in range(nb):
+        y1[u] = 0.0
+    tree_solve(plan, nbody, vn, y1, vn, y1)
     for body in range(nbody):
         for k in range(3):
-            vel[body, k] += u0[body, k] + f[body, k]
-            angvel[body, k] += u0[body, 3 + k] + f[body, 3 + k]
+            vn[body, k] += vel[body, k] + u0[body, k]
+            vn[body, 3 + k] += angvel[body, k] + u0[body, 3 + k]
+    for t in range(ns):
+        a = sub[t]
+        pa = p[a]
+        if pa == 0.0:
+            continue
+        r = idx[oth[a]]
+        for side in range(2):
+            body = rows.body_b[r] if side else rows.body_a[r]
+            if body >= 0 and alone[body]:
+                for k in range(6):
+                    vn[body, k] += dva[t, 6 * side + k] * pa
+
+
+@noalloc
+def _finish(rows, nrow, idx, oth, nn, bsel, nb, y0, y1, p_n, vn, vel, angvel, impulse):
+    """The new velocities ``vn`` into ``vel``, ``angvel``; every row's impulse."""
+    for body in range(vel.shape[0]):
+        for k in range(3):
+            vel[body, k] = vn[body, k]
+            angvel[body, k] = vn[body, 3 + k]
     for r in range(nrow):
         impulse[r] = 0.0
     for u in range(nb):
         impulse[bsel[u]] = -(y0[u] + y1[u])
     for c in range(nn):
         impulse[idx[oth[c]]] = p_n[c]
-    return LEMKE_SOLVED
+
+
+@njit(cache=True)
+def _guess_on_tree(rows, idx, where, kind, oth, nn, sub, ns, state, b, plan, nb, inv_mass,
+                   inv_inertia, vel, angvel, u0, p, vn, y1):
+    """Last step's contact state (``state``, ``_guess_states``) solved with ``S`` of the
+    rows it holds or fixes alone (``oth[sub[:ns]]``), the velocities that follow from
+    both tree solves, and every other row checked against them: ``w = J v_new - rhs``
+    must not pull on a zero normal or limit, nor slip a zero friction row of a holding
+    contact. True when ``p`` (nn,), ``vn`` and ``y1`` hold the mixed LCP's solution;
+    False leaves the full complement to decide."""
+    S, cvec, slot, alone, dva = _complement(rows, idx, oth, sub, ns, b, plan, nb, inv_mass,
+                                            inv_inertia, u0)
+    free = np.empty(ns, np.int64)
+    nf = 0
+    for t in range(ns):
+        a = sub[t]
+        r = idx[oth[a]]
+        if state[a] == _EQUAL:
+            free[nf] = t
+            nf += 1
+            p[a] = 0.0
+        else:
+            p[a] = rows.hi[r] if state[a] == _AT_HI else rows.lo[r]
+    sub_m = np.empty((nf, nf))
+    rhs = np.empty(nf)
+    x = np.empty(nf)
+    for u in range(nf):
+        t = free[u]
+        acc = cvec[t]
+        for v in range(ns):
+            if state[sub[v]] != _EQUAL:
+                acc -= S[t, v] * p[sub[v]]
+        rhs[u] = acc
+        for v in range(nf):
+            sub_m[u, v] = S[t, free[v]]
+    if not _cholesky_nonredundant(sub_m, nf):
+        return False
+    cholesky_apply(sub_m, rhs, nf, x)
+    cmax = 1e-300
+    smax = 1e-300
+    pmax = 0.0
+    for u in range(nf):
+        p[sub[free[u]]] = x[u]
+        pmax = max(pmax, abs(x[u]))
+    for t in range(ns):
+        smax = max(smax, abs(S[t, t]))
+    for a in range(nn):
+        cmax = max(cmax, abs(b[oth[a]]))
+    for t in range(ns):
+        cmax = max(cmax, abs(cvec[t]))
+    tol_w = _GUESS_TOL * (cmax + smax * pmax)
+    tol_p = tol_w / smax
+    if not _holding_ok(rows, idx, where, kind, oth, nn, state, p, tol_p):
+        return False
+    _respond(rows, idx, oth, sub, ns, p, plan, nb, slot, alone, dva, vel, angvel, u0, vn, y1)
+    for a in range(nn):
+        st = state[a]
+        if st == _EQUAL:
+            continue
+        i = oth[a]
+        r = idx[i]
+        w = rows.cfm[r] * p[a] - rows.rhs[r] + row_dot(rows, r, vn)
+        k = kind[i]
+        if k == KIND_UNILATERAL and w < -tol_w:
+            return False
+        if (st == _AT_HI and w > tol_w) or (st == _AT_LO and w < -tol_w):
+            return False
+        if k == KIND_FRICTION and abs(w) > tol_w:
+            normal = _normal_of(rows, where, oth, nn, r)
+            if normal >= 0 and state[normal] == _EQUAL:
+                return False
+    for a in range(nn):
+        if kind[oth[a]] == KIND_UNILATERAL and p[a] < 0.0:
+            p[a] = 0.0                           # round-off below the slack
+    return True
 
 
 @noalloc
-def _schur_blocks(rows, idx, oth, nn, slot, nc, alone, G, inv_mass, inv_inertia, u0, b,
-                  resp, dva, S, cvec):
-    """``S = J_N M_B^-1 J_N^T + C_N`` and ``c = b_N - J_N u0`` from the bodies' blocks
-    ``G``. ``resp[a, s]`` is the velocity change of contact body slot ``s`` per unit
-    impulse of row ``a`` (zero on entry); rows on a body outside the tree use that body's
-    own inverse mass (``dva``)."""
+def _normal_of(rows, where, oth, nn, r):
+    """Position in ``oth`` of friction row ``r``'s normal row (-1 if it is not there)."""
+    pa = where[rows.parent[r]]
+    for c in range(nn):
+        if oth[c] == pa:
+            return c
+    return -1
+
+
+@noalloc
+def _group_load(rows, idx, oth, kind, nn, r, p):
+    """Sum of |p| over the friction rows sharing friction row ``r``'s pyramid."""
+    load = 0.0
+    for c in range(nn):
+        rc = idx[oth[c]]
+        if kind[oth[c]] == KIND_FRICTION and (
+                rc == r or (rows.group[r] >= 0 and rows.group[rc] == rows.group[r])):
+            load += abs(p[c])
+    return load
+
+
+@noalloc
+def _holding_ok(rows, idx, where, kind, oth, nn, state, p, tol_p):
+    """Whether the held rows' impulses keep their bounds: normals and limits push, box
+    rows stay inside, every friction group stays inside ``mu p_n``."""
     for a in range(nn):
-        r = idx[oth[a]]
+        if state[a] != _EQUAL:
+            continue
+        i = oth[a]
+        r = idx[i]
+        k = kind[i]
+        if k == KIND_UNILATERAL and p[a] < -tol_p:
+            return False
+        if k == KIND_BOX and (p[a] > rows.hi[r] + tol_p or p[a] < rows.lo[r] - tol_p):
+            return False
+        if k == KIND_FRICTION:
+            normal = _normal_of(rows, where, oth, nn, r)
+            bound = rows.mu[r] * max(p[normal], 0.0) if normal >= 0 else 0.0
+            if _group_load(rows, idx, oth, kind, nn, r, p) > bound + tol_p:
+                return False
+    return True
+
+
+@noalloc
+def _schur_blocks(rows, idx, oth, sub, ns, slot, nc, alone, G, inv_mass, inv_inertia, u0, b,
+                  resp, dva, S, cvec):
+    """``S = J_N M_B^-1 J_N^T + C_N`` and ``c = b_N - J_N u0`` for the rows ``oth[sub[:ns]]``
+    from the bodies' blocks ``G``. ``resp[t, s]`` is the velocity change of contact body
+    slot ``s`` per unit impulse of row ``t`` (zero on entry); rows on a body outside the
+    tree use that body's own inverse mass (``dva``)."""
+    for t in range(ns):
+        r = idx[oth[sub[t]]]
         for side in range(2):
             body = rows.body_a[r] if side == 0 else rows.body_b[r]
             if body < 0 or inv_mass[body] <= 0.0:
                 continue
             if alone[body]:
-                minv_jt(rows, r, inv_mass, inv_inertia, dva[a])
+                minv_jt(rows, r, inv_mass, inv_inertia, dva[t])
                 continue
             sp = slot[body]
             o = 6 * side
-            for s in range(nc):
+            for q in range(nc):
                 for i in range(6):
                     acc = 0.0
                     for k in range(6):
-                        acc += G[s, sp, i, k] * rows.J[r, o + k]
-                    resp[a, s, i] += acc
-    for a in range(nn):
-        ra = idx[oth[a]]
-        for bb in range(a + 1):
-            rb = idx[oth[bb]]
+                        acc += G[q, sp, i, k] * rows.J[r, o + k]
+                    resp[t, q, i] += acc
+    for t in range(ns):
+        ra = idx[oth[sub[t]]]
+        for tb in range(t + 1):
+            rb = idx[oth[sub[tb]]]
             acc = 0.0
             for side in range(2):
                 body = rows.body_b[rb] if side else rows.body_a[rb]
@@ -263,15 +447,15 @@ def _schur_blocks(rows, idx, oth, nn, slot, nc, alone, G, inv_mass, inv_inertia,
                         other = rows.body_b[ra] if sa else rows.body_a[ra]
                         if other == body:
                             for k in range(6):
-                                acc += rows.J[rb, o + k] * dva[a, 6 * sa + k]
+                                acc += rows.J[rb, o + k] * dva[t, 6 * sa + k]
                 else:
-                    s = slot[body]
+                    q = slot[body]
                     for k in range(6):
-                        acc += rows.J[rb, o + k] * resp[a, s, k]
-            S[a, bb] = acc
-            S[bb, a] = acc
-        S[a, a] += rows.cfm[ra]
-        cvec[a] = b[oth[a]] - row_dot(rows, ra, u0)
+                        acc += rows.J[rb, o + k] * resp[t, q, k]
+            S[t, tb] = acc
+            S[tb, t] = acc
+        S[t, t] += rows.cfm[ra]
+        cvec[t] = b[oth[sub[t]]] - row_dot(rows, ra, u0)
 
 
 # ------------------------------------------------------------ the LCP on the complement
@@ -332,7 +516,7 @@ def _guess_states(rows, idx, where, kind, oth, nn, impulse, state):
             rc = idx[oth[c]]
             if kind[oth[c]] == KIND_FRICTION and (rc == r or (rows.group[r] >= 0
                                                               and rows.group[rc] == rows.group[r])):
-                load += abs(impulse[rc])
+                load += abs(impulse[rc])          # (impulse is indexed by row, not by oth)
         if load >= rows.mu[r] * pn * (1.0 - 1e-9):
             return False
         state[a] = _EQUAL if impulse[r] != 0.0 else _ZERO
@@ -423,12 +607,7 @@ def _guessed_active_set(rows, idx, where, kind, oth, nn, S, cvec, state, p, sub,
             if kind[i] != KIND_FRICTION:
                 continue
             r = idx[i]
-            pa = where[rows.parent[r]]
-            normal = -1
-            for c in range(nn):
-                if oth[c] == pa:
-                    normal = c
-                    break
+            normal = _normal_of(rows, where, oth, nn, r)
             holding = normal >= 0 and state[normal] == _EQUAL
             if not holding:
                 if state[a] != _ZERO:
@@ -438,15 +617,9 @@ def _guessed_active_set(rows, idx, where, kind, oth, nn, S, cvec, state, p, sub,
                 if abs(w[a]) > tol_w:
                     state[a] = _EQUAL
                     changed = True
-            elif not changed:
-                load = 0.0
-                for c in range(nn):
-                    rc = idx[oth[c]]
-                    if kind[oth[c]] == KIND_FRICTION and (
-                            rc == r or (rows.group[r] >= 0 and rows.group[rc] == rows.group[r])):
-                        load += abs(p[c])
-                if load > rows.mu[r] * max(p[normal], 0.0) + tol_p:
-                    return False
+            elif not changed and (_group_load(rows, idx, oth, kind, nn, r, p)
+                                  > rows.mu[r] * max(p[normal], 0.0) + tol_p):
+                return False
         if not changed:
             for a in range(nn):
                 if kind[oth[a]] == KIND_UNILATERAL and p[a] < 0.0:

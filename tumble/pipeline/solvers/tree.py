@@ -40,7 +40,8 @@ from ..._jit import noalloc
 
 # Which rows form which node, and the elimination order (see tree_plan).
 TreePlan = namedtuple("TreePlan", [
-    "meta",        # (3,) int64: number of pair nodes, nodes in `order`, largest pair size
+    "meta",        # (4,) int64: number of pair nodes, nodes in `order`, largest pair size,
+                   # 1 when the layout (dim .. row_z) is that of every row in use
     "pair_rows",   # (n,) int64 row positions grouped by pair (in the order of `sel`)
     "pair_start",  # (n + 1,) int64 first entry of each pair in pair_rows
     "pair_body",   # (n, 2) int64 the pair's dynamic bodies, -1 for ground
@@ -179,7 +180,7 @@ def tree_plan(rows, sel, n, inv_mass, nbody):
                         parent[v] = u
                         order[norder] = v
                         norder += 1
-    meta = np.array([npair, norder, maxdim], np.int64)
+    meta = np.array([npair, norder, maxdim, 0], np.int64)
     opos = np.full(nnode, -1, np.int64)
     for t in range(norder):
         opos[order[t]] = t
@@ -195,7 +196,7 @@ def tree_plan(rows, sel, n, inv_mass, nbody):
 @njit(cache=True)
 def _empty_plan():
     z = np.zeros(1, np.int64)
-    return TreePlan(np.zeros(3, np.int64), z, z, np.zeros((1, 2), np.int64), z, z, z, z, z, z,
+    return TreePlan(np.zeros(4, np.int64), z, z, np.zeros((1, 2), np.int64), z, z, z, z, z, z,
                     np.zeros(1), z, np.zeros(1), z, z, z, np.zeros(1), np.zeros(1))
 
 
@@ -293,16 +294,11 @@ def _inv3(a):
 
 
 @noalloc
-def tree_factor(plan, rows, sel, cfm, inv_mass, inv_inertia, nbody):
-    """Factorise ``K`` for the rows of ``plan`` with ``plan.use[i] == 1``.
-
-    cfm (n,) : the diagonal ``C`` of each row position (velocity per impulse).
-    inv_mass (nbody,), inv_inertia (nbody, 3, 3) world frame. Returns False if a block
-    is not positive definite (redundant rows without CFM)."""
+def _layout(plan, nbody):
+    """Block sizes and offsets of the nodes for the rows in use (``plan.use``); a pair with
+    no row in use drops out and its children become roots."""
     norder = plan.meta[1]
-    fac, dim, foff, zoff = plan.fac, plan.dim, plan.fac_off, plan.z_off
-    # block sizes and offsets; a pair with no row in use drops out, its children
-    # become roots
+    dim, foff, zoff = plan.dim, plan.fac_off, plan.z_off
     fo = 0
     zo = 0
     for t in range(norder):
@@ -334,6 +330,24 @@ def tree_factor(plan, rows, sel, cfm, inv_mass, inv_inertia, nbody):
         plan.w_off[u] = wo
         if pa >= 0:
             wo += dim[u] * dim[pa]
+
+
+@noalloc
+def tree_factor(plan, rows, sel, cfm, inv_mass, inv_inertia, nbody):
+    """Factorise ``K`` for the rows of ``plan`` with ``plan.use[i] == 1``.
+
+    cfm (n,) : the diagonal ``C`` of each row position (velocity per impulse).
+    inv_mass (nbody,), inv_inertia (nbody, 3, 3) world frame. Returns False if a block
+    is not positive definite (redundant rows without CFM)."""
+    norder = plan.meta[1]
+    fac, dim, foff, zoff = plan.fac, plan.dim, plan.fac_off, plan.z_off
+    all_used = True
+    for i in range(plan.pair_start[plan.meta[0]]):
+        if plan.use[i] == 0:
+            all_used = False
+    if not (all_used and plan.meta[3] == 1):
+        _layout(plan, nbody)
+        plan.meta[3] = 1 if all_used else 0
     # initial blocks: mass matrices and CFM
     for t in range(norder):
         u = plan.order[t]
@@ -470,100 +484,6 @@ def tree_solve(plan, nbody, f, g, u_out, y_out):
         y_out[i] = z[plan.row_z[i]] if plan.row_z[i] >= 0 else 0.0
 
 
-@noalloc
-def tree_inverse_mass_rows(plan, rows, cols, ncol, dv, nbody, zc, member, path, plen, out):
-    """``out[a, b] = J_a M_B^-1 J_b^T`` for the rows ``cols[:ncol]`` (no CFM added).
-
-    ``M_B^-1`` is the inverse mass of the bodies under the rows factorised in ``plan``:
-    for bodies in the tree, the top-left block of ``K^-1``; for others, their own inverse
-    mass (``dv`` (ncol, 12): ``M^-1 J^T`` of each row). With ``K = L D L^T``,
-    ``f_a^T K^-1 f_b = sum over nodes u of s_u h_a,u . h_b,u``, ``h = L^-1 f``, and
-    ``h_a`` is non-zero only on the paths from row a's bodies to their root, so each row
-    costs its path and each pair of rows their common path: no full solve per row.
-
-    Work arrays: zc (ncol, 6 nbody + n) float64, member (ncol, nbody + n) bool, both
-    zero on entry and left zero; path (ncol, nbody + n) int64; plen (ncol,) int64.
-    """
-    dim, zoff, foff, fac, wm = plan.dim, plan.z_off, plan.fac_off, plan.fac, plan.wmat
-    for a in range(ncol):
-        r = cols[a]
-        plen[a] = 0
-        for side in range(2):
-            b = rows.body_a[r] if side == 0 else rows.body_b[r]
-            if b < 0 or dim[b] != 6:
-                continue                         # ground, or a body outside the tree
-            for k in range(6):
-                zc[a, zoff[b] + k] += rows.J[r, 6 * side + k]
-            u = b
-            while u >= 0 and not member[a, u]:
-                member[a, u] = True
-                path[a, plen[a]] = u
-                plen[a] += 1
-                u = plan.eparent[u]
-        # children before parents: sort the path by position in the order, last first
-        m = plen[a]
-        for i in range(1, m):
-            v = path[a, i]
-            k = i - 1
-            while k >= 0 and plan.opos[path[a, k]] < plan.opos[v]:
-                path[a, k + 1] = path[a, k]
-                k -= 1
-            path[a, k + 1] = v
-        for t in range(m):
-            u = path[a, t]
-            d = dim[u]
-            o = zoff[u]
-            lo = foff[u]
-            for i in range(d):
-                acc = zc[a, o + i]
-                for k in range(i):
-                    acc -= fac[lo + i * d + k] * zc[a, o + k]
-                zc[a, o + i] = acc * plan.dinv[o + i]
-            pa = plan.eparent[u]
-            if pa < 0:
-                continue
-            dp = dim[pa]
-            op = zoff[pa]
-            wo = plan.w_off[u]
-            sign = 1.0 if u < nbody else -1.0
-            for c in range(dp):
-                acc = 0.0
-                for i in range(d):
-                    acc += wm[wo + i * dp + c] * zc[a, o + i]
-                zc[a, op + c] -= sign * acc
-    for a in range(ncol):
-        ra = cols[a]
-        for bb in range(a + 1):
-            rb = cols[bb]
-            acc = 0.0
-            for t in range(plen[a]):
-                u = path[a, t]
-                if member[bb, u]:
-                    o = zoff[u]
-                    dot = 0.0
-                    for k in range(dim[u]):
-                        dot += zc[a, o + k] * zc[bb, o + k]
-                    acc += dot if u < nbody else -dot
-            # bodies outside the tree: their own inverse mass
-            for sa in range(2):
-                body = rows.body_a[ra] if sa == 0 else rows.body_b[ra]
-                if body < 0 or dim[body] == 6:
-                    continue
-                for sb in range(2):
-                    other = rows.body_a[rb] if sb == 0 else rows.body_b[rb]
-                    if other == body:
-                        for k in range(6):
-                            acc += rows.J[ra, 6 * sa + k] * dv[bb, 6 * sb + k]
-            out[a, bb] = acc
-            out[bb, a] = acc
-    for a in range(ncol):
-        for t in range(plen[a]):
-            u = path[a, t]
-            member[a, u] = False
-            for k in range(dim[u]):
-                zc[a, zoff[u] + k] = 0.0
-
-
 # ------------------------------------------------------------------ plans kept across steps
 
 # A plan made once and reused while the same rows are factorised step after step (the
@@ -580,7 +500,7 @@ def make_plan_cache(capacity, nbody, fac_capacity):
     never holds a plan: ``cached_tree_plan`` then plans afresh every call."""
     cap = max(capacity, 1)
     nnode = nbody + cap
-    plan = TreePlan(np.zeros(3, np.int64), np.zeros(cap, np.int64), np.zeros(cap + 1, np.int64),
+    plan = TreePlan(np.zeros(4, np.int64), np.zeros(cap, np.int64), np.zeros(cap + 1, np.int64),
                     np.full((cap, 2), -1, np.int64), np.zeros(nnode, np.int64),
                     np.full(nnode, -1, np.int64), np.full(nnode, -1, np.int64),
                     np.zeros(nnode, np.int64), np.zeros(nnode, np.int64),
@@ -645,7 +565,7 @@ def cached_tree_plan(cache, rows, sel, n, inv_mass, nbody):
     ok, fresh = tree_plan(rows, sel, n, inv_mass, nbody)
     if n > meta[2] or fresh.fac.shape[0] > plan.fac.shape[0] or fresh.z.shape[0] > plan.z.shape[0]:
         return ok, fresh
-    for i in range(3):
+    for i in range(4):
         plan.meta[i] = fresh.meta[i]
     _copy_into(fresh.pair_rows, plan.pair_rows)
     _copy_into(fresh.pair_start, plan.pair_start)
@@ -699,9 +619,10 @@ def tree_body_inverse(plan, bodies, nc, nbody, H, member, G):
     [linear, angular] of body ``bodies[c]`` per unit impulse [force, torque] on body
     ``bodies[d]`` with every factorised row holding.
 
-    As in ``tree_inverse_mass_rows``, ``f_a^T K^-1 f_b = sum_u s_u h_a,u . h_b,u`` with
-    ``h = L^-1 f``; here the columns are the six unit impulses on each body, nonzero only
-    on the body's path to its root, and a pair of bodies sums over the path they share.
+    With ``K = L D L^T`` (D = +1 on body blocks, -1 on row blocks),
+    ``f_a^T K^-1 f_b = sum_u s_u h_a,u . h_b,u`` with ``h = L^-1 f``. The columns here are
+    the six unit impulses on each body: ``h`` is nonzero only on the body's path to its
+    root, so each body costs its path and each pair of bodies the path they share.
     Work arrays: H (nc, 6 nbody + rows, 6) float64 zero on entry and left zero;
     member (nc, nbody + rows) bool, False on entry and left False. G (nc, nc, 6, 6) out.
     """
