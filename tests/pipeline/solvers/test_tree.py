@@ -413,9 +413,10 @@ def contact_problem(rng, ncontact, nbox, nbody):
     for k in range(ncontact):
         r = 3 * k
         rows.lo[r], rows.hi[r] = 0.0, INF
+        mu = rng.uniform(0.2, 1.0)               # one coefficient per contact, as the rows have
         for t in (1, 2):
             rows.parent[r + t], rows.group[r + t] = r, r + 1
-            rows.mu[r + t] = rng.uniform(0.2, 1.0)
+            rows.mu[r + t] = mu
     for k in range(nbox):
         r = 3 * ncontact + k
         rows.lo[r] = -rng.uniform(0.1, 2.0)

@@ -36,7 +36,7 @@ from ..._jit import noalloc
 from ..joints.common import INF
 from .common import active_rows, apply_impulses, make_rows_nb, minv_jt, row_velocity
 from .direct import assemble, cholesky_apply, cholesky_factor, row_dot
-from .lemke import LEMKE_SOLVED, lemke, lemke_warm
+from .lemke import LEMKE_INACCURATE, LEMKE_SOLVED, VERIFY_TOL as _VERIFY_TOL, lemke, lemke_warm
 from .tree import (cached_tree_plan, make_plan_cache, tree_body_inverse, tree_factor,
                    tree_solve)
 
@@ -724,7 +724,68 @@ def _pyramid_lcp(rows, idx, where, kind, oth, nn, S, cvec, impulse, max_pivots, 
     for a in range(nz):
         if var_sign[a] != 0.0:
             p_n[var_row[a]] += var_sign[a] * z[a]
+    # Lemke verifies its residual relative to the size of z; a basis that pairs two huge,
+    # cancelling halves of a friction row passes that and is still wrong, so the impulses
+    # are checked once more against the rows themselves
+    if not _complementary(rows, idx, where, kind, oth, nn, S, cvec, p_n, _VERIFY_TOL,
+                          np.empty(nn)):
+        return LEMKE_INACCURATE
     return LEMKE_SOLVED
+
+
+@noalloc
+def _complementary(rows, idx, where, kind, oth, nn, S, cvec, p, tol, w):
+    """Whether ``p`` solves the mixed LCP of ``S p - c`` (module docstring) to ``tol``
+    of the problem's scale: normals and limits push or let go, box rows keep their
+    bounds, each friction group stays in its pyramid and slips only on its edge, against
+    the direction of its impulse. ``w`` (nn,) is scratch."""
+    cmax = 1e-300
+    smax = 1e-300
+    pmax = 0.0
+    for a in range(nn):
+        cmax = max(cmax, abs(cvec[a]))
+        smax = max(smax, abs(S[a, a]))
+        pmax = max(pmax, abs(p[a]))
+    for a in range(nn):
+        acc = -cvec[a]
+        for c in range(nn):
+            acc += S[a, c] * p[c]
+        w[a] = acc
+    tol_w = tol * (cmax + smax * pmax)
+    tol_p = tol_w / smax
+    for a in range(nn):
+        i = oth[a]
+        r = idx[i]
+        k = kind[i]
+        if k == KIND_UNILATERAL:
+            if p[a] < -tol_p or w[a] < -tol_w or min(p[a] * smax, w[a]) > tol_w:
+                return False
+        elif k == KIND_BOX:
+            if p[a] > rows.hi[r] + tol_p or p[a] < rows.lo[r] - tol_p:
+                return False
+            if p[a] < rows.hi[r] - tol_p and p[a] > rows.lo[r] + tol_p and abs(w[a]) > tol_w:
+                return False
+            if (p[a] >= rows.hi[r] - tol_p and w[a] > tol_w) or \
+                    (p[a] <= rows.lo[r] + tol_p and w[a] < -tol_w):
+                return False
+        else:
+            normal = _normal_of(rows, where, oth, nn, r)
+            bound = rows.mu[r] * max(p[normal], 0.0) if normal >= 0 else 0.0
+            load = 0.0
+            lam = 0.0                   # the group's slip: the largest slip of its rows
+            for c in range(nn):
+                rc = idx[oth[c]]
+                if kind[oth[c]] == KIND_FRICTION and (
+                        c == a or (rows.group[r] >= 0 and rows.group[rc] == rows.group[r])):
+                    load += abs(p[c])
+                    lam = max(lam, abs(w[c]))
+            if load > bound + tol_p:
+                return False
+            if abs(p[a]) > tol_p and abs(w[a] + (lam if p[a] > 0.0 else -lam)) > tol_w:
+                return False
+            if lam > tol_w and load < bound - tol_p:
+                return False
+    return True
 
 
 @njit(cache=True)
