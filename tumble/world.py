@@ -36,15 +36,36 @@ _STATE_FIELDS = {
 }
 
 
+def _type_key(x):
+    """What Numba's type of ``x`` depends on, cheaply: for arrays dtype, rank, layout and
+    writability; namedtuples field by field; other values their Python type."""
+    if isinstance(x, np.ndarray):
+        return (x.dtype.str, x.ndim, x.flags.c_contiguous, x.flags.writeable)
+    if isinstance(x, tuple):
+        return (type(x),) + tuple(_type_key(v) for v in x)
+    return type(x)
+
+
+# compiled entry points found so far, by (dispatcher, _type_key of the arguments)
+_ENTRY_POINTS = {}
+
+
 def _entry_point(dispatcher, args):
     """The compiled entry point of Numba ``dispatcher`` for arguments typed as ``args``
     (the dispatcher itself if this Numba does not expose it): calling it skips the
-    dispatcher's type matching, which costs more than a small world's step."""
-    try:
-        sig = tuple(dispatcher.typeof_pyval(a) for a in args)
-        return dispatcher.overloads[sig].entry_point
-    except (AttributeError, KeyError, TypeError):
-        return dispatcher
+    dispatcher's type matching, which costs more than a small world's step. Matching
+    the types once costs 2 ms, so the entry point is remembered for every world whose
+    arguments have the same types."""
+    key = (dispatcher, _type_key(args))
+    entry = _ENTRY_POINTS.get(key)
+    if entry is None:
+        try:
+            sig = tuple(dispatcher.typeof_pyval(a) for a in args)
+            entry = dispatcher.overloads[sig].entry_point
+        except (AttributeError, KeyError, TypeError):
+            entry = dispatcher
+        _ENTRY_POINTS[key] = entry
+    return entry
 
 
 # How check_drives' fields are named in errors (the user-facing name where it differs).
@@ -628,11 +649,7 @@ class World:
                 raise self._drive_error(code, w, i)
             if stage == pipeline_step.CALL_NEW_WORK:
                 self._work = None
-            elif code == pipeline_step.STEP_MORE_PAIRS:
-                self._pairs = np.zeros((2 * needed, 2), np.int32)
-            elif code == pipeline_step.STEP_MORE_CONTACTS:
-                self._grow_contacts(needed)
-            else:
+            elif not self._grew_buffers(code, needed):
                 return code, w, k, i
 
     def _step_parallel(self, n, options):
@@ -649,12 +666,19 @@ class World:
         while True:
             status, w, k, b, needed = step_worlds_parallel(
                 self.model.arrays, s, self._contacts, self._pairs, n, options)
-            if status == pipeline_step.STEP_MORE_PAIRS:
-                self._pairs = np.zeros((2 * needed, 2), np.int32)
-            elif status == pipeline_step.STEP_MORE_CONTACTS:
-                self._grow_contacts(needed)
-            else:
+            if not self._grew_buffers(status, needed):
                 return status, w, k, b
+
+    def _grew_buffers(self, status, needed):
+        """Grow the broad-phase or contact buffer when the step asked for it (the step was
+        undone; it is called again). False if it did not ask."""
+        if status == pipeline_step.STEP_MORE_PAIRS:
+            self._pairs = np.zeros((2 * needed, 2), np.int32)
+        elif status == pipeline_step.STEP_MORE_CONTACTS:
+            self._grow_contacts(needed)
+        else:
+            return False
+        return True
 
     def _state_error(self, code, w, b):
         """The StateError for check_state's report ``code`` on body ``b`` of world ``w``."""

@@ -458,7 +458,7 @@ def test_guessed_active_set_solves_the_lcp(seed, ncontact, nbox, nbody, guess):
             p2 = np.zeros(n)
             took = ML._guessed_active_set(rows, idx, where, kind, oth, n, S, c, state, p2,
                                           np.empty((n, n)), np.empty(n), np.empty(n),
-                                          np.empty(n, np.int64), np.empty(n))
+                                          np.empty(n, np.int64), np.empty(n), np.empty((n, n)))
             if took:
                 np.testing.assert_allclose(p2, p_ref, rtol=0,
                                            atol=1e-8 * max(1.0, np.abs(p_ref).max()))
@@ -485,6 +485,6 @@ def test_right_guess_skips_lemke():
         p = np.zeros(n)
         assert ML._guessed_active_set(rows, idx, where, kind, oth, n, S, c, state, p,
                                       np.empty((n, n)), np.empty(n), np.empty(n),
-                                      np.empty(n, np.int64), np.empty(n))
+                                      np.empty(n, np.int64), np.empty(n), np.empty((n, n)))
         took += 1
     assert took >= 10 and took + sliding == 40

@@ -23,16 +23,17 @@ from .tree import cached_tree_plan, make_plan_cache, tree_factor, tree_solve
 
 
 @noalloc
-def cholesky_factor(a, n, work):
+def cholesky_factor(a, n, work, redundant=0.0):
     """Lower Cholesky factor of the symmetric positive definite ``a[:n, :n]`` into ``work``.
-    Returns False when ``a`` is not positive definite (to working precision)."""
+    Returns False when ``a`` is not positive definite (to working precision), or when a
+    pivot falls below ``redundant`` times its diagonal entry (rows that depend on others)."""
     for i in range(n):
         for k in range(i + 1):
             s = a[i, k]
             for t in range(k):
                 s -= work[i, t] * work[k, t]
             if i == k:
-                if s <= 1e-300:
+                if s <= 1e-300 or s <= redundant * a[i, i]:
                     return False
                 work[i, i] = np.sqrt(s)
             else:

@@ -182,7 +182,7 @@ def _mlcp_tree(rows, nrow, idx, where, n, kind, bil, nb, oth, nn, bsel, plan, in
     if guessed:
         if _guessed_active_set(rows, idx, where, kind, oth, nn, S, cvec, state, p_n,
                                np.empty((nn, nn)), np.empty(nn), np.empty(nn),
-                               np.empty(nn, np.int64), np.empty(nn)):
+                               np.empty(nn, np.int64), np.empty(nn), np.empty((nn, nn))):
             status = LEMKE_SOLVED
         else:
             status = _pyramid_lcp(rows, idx, where, kind, oth, nn, S, cvec, impulse,
@@ -242,17 +242,7 @@ def _respond(rows, idx, oth, sub, ns, p, plan, nb, slot, alone, dva, vel, angvel
     for body in range(nbody):
         for k in range(6):
             vn[body, k] = 0.0
-    for t in range(ns):
-        a = sub[t]
-        pa = p[a]
-        if pa == 0.0:
-            continue
-        r = idx[oth[a]]
-        for side in range(2):
-            body = rows.body_b[r] if side else rows.body_a[r]
-            if body >= 0 and not alone[body]:
-                for k in range(6):
-                    vn[body, k] += rows.J[r, 6 * side + k] * pa
+    _push(rows, idx, oth, sub, ns, p, alone, False, rows.J, vn)   # J^T p on the tree
     for u in range(nb):
         y1[u] = 0.0
     tree_solve(plan, nbody, vn, y1, vn, y1)
@@ -260,17 +250,26 @@ def _respond(rows, idx, oth, sub, ns, p, plan, nb, slot, alone, dva, vel, angvel
         for k in range(3):
             vn[body, k] += vel[body, k] + u0[body, k]
             vn[body, 3 + k] += angvel[body, k] + u0[body, 3 + k]
+    _push(rows, idx, oth, sub, ns, p, alone, True, dva, vn)       # M^-1 J^T p on the others
+
+
+@noalloc
+def _push(rows, idx, oth, sub, ns, p, alone, on_alone, per_row, out):
+    """``out[body] += per_row[.., side] p`` for the rows ``oth[sub[:ns]]`` on the bodies that
+    are (``on_alone``) or are not outside the tree; ``per_row`` is indexed by row (J) for
+    the tree, by position in ``sub`` (dva) for the others."""
     for t in range(ns):
         a = sub[t]
         pa = p[a]
         if pa == 0.0:
             continue
         r = idx[oth[a]]
+        q = t if on_alone else r
         for side in range(2):
             body = rows.body_b[r] if side else rows.body_a[r]
-            if body >= 0 and alone[body]:
+            if body >= 0 and alone[body] == on_alone:
                 for k in range(6):
-                    vn[body, k] += dva[t, 6 * side + k] * pa
+                    out[body, k] += per_row[q, 6 * side + k] * pa
 
 
 @noalloc
@@ -322,9 +321,10 @@ def _guess_on_tree(rows, idx, where, kind, oth, nn, sub, ns, state, b, plan, nb,
         rhs[u] = acc
         for v in range(nf):
             sub_m[u, v] = S[t, free[v]]
-    if not _cholesky_nonredundant(sub_m, nf):
+    fac = np.empty((nf, nf))
+    if not cholesky_factor(sub_m, nf, fac, _REDUNDANT):
         return False
-    cholesky_apply(sub_m, rhs, nf, x)
+    cholesky_apply(fac, rhs, nf, x)
     cmax = 1e-300
     smax = 1e-300
     pmax = 0.0
@@ -469,7 +469,7 @@ def _lcp_on_schur(rows, idx, where, kind, oth, nn, S, cvec, impulse, max_pivots,
     if _guess_states(rows, idx, where, kind, oth, nn, impulse, state):
         if _guessed_active_set(rows, idx, where, kind, oth, nn, S, cvec, state, p_n,
                                np.empty((nn, nn)), np.empty(nn), np.empty(nn),
-                               np.empty(nn, np.int64), np.empty(nn)):
+                               np.empty(nn, np.int64), np.empty(nn), np.empty((nn, nn))):
             return LEMKE_SOLVED
         return _pyramid_lcp(rows, idx, where, kind, oth, nn, S, cvec, impulse, max_pivots,
                             False, p_n)
@@ -525,11 +525,12 @@ def _guess_states(rows, idx, where, kind, oth, nn, impulse, state):
 
 @noalloc
 def _guessed_active_set(rows, idx, where, kind, oth, nn, S, cvec, state, p, sub, rhs, x,
-                        free, w):
+                        free, w, fac):
     """Solve the rows in ``state`` and check complementarity; on failure correct the
     states (a normal pulling lets go, a row moving into its bound holds) and retry, up
     to ``_GUESS_ROUNDS`` times. True when ``p`` (nn,) solves the mixed LCP, every
-    inequality holding to ``_GUESS_TOL`` of the problem's scale."""
+    inequality holding to ``_GUESS_TOL`` of the problem's scale. sub, fac (nn, nn), rhs,
+    x, w (nn,), free (nn,) int64 are scratch."""
     cmax = 1e-300
     smax = 1e-300
     for a in range(nn):
@@ -558,9 +559,9 @@ def _guessed_active_set(rows, idx, where, kind, oth, nn, S, cvec, state, p, sub,
             rhs[u] = s
             for v in range(nf):
                 sub[u, v] = S[a, free[v]]
-        if not _cholesky_nonredundant(sub, nf):
+        if not cholesky_factor(sub, nf, fac, _REDUNDANT):
             return False
-        cholesky_apply(sub, rhs, nf, x)
+        cholesky_apply(fac, rhs, nf, x)
         pmax = 0.0
         for u in range(nf):
             p[free[u]] = x[u]
@@ -626,25 +627,6 @@ def _guessed_active_set(rows, idx, where, kind, oth, nn, S, cvec, state, p, sub,
                     p[a] = 0.0                   # round-off below the slack
             return True
     return False
-
-
-@noalloc
-def _cholesky_nonredundant(a, n):
-    """In-place lower Cholesky factor of ``a[:n, :n]`` (the strict upper triangle is left
-    as it was); False when a pivot falls below ``_REDUNDANT`` of its diagonal entry
-    (dependent rows) or the matrix is not positive definite."""
-    for i in range(n):
-        for k in range(i + 1):
-            s = a[i, k]
-            for t in range(k):
-                s -= a[i, t] * a[k, t]
-            if i == k:
-                if not s > _REDUNDANT * a[i, i] or s <= 1e-300:
-                    return False
-                a[i, i] = np.sqrt(s)
-            else:
-                a[i, k] = s / a[k, k]
-    return True
 
 
 @njit(cache=True)
