@@ -214,7 +214,7 @@ def profiled_steps(m, s, con, pairs, n, o, t_stage, t_part, counts):
         t1 = _now(buf)
         t_stage[8] += t1 - t0
         if njrow > 0 and o.projection > 0:
-            project_joints(m, pos, quat, drive, rows, inv_inertia, o.projection,
+            project_joints(m, pos, quat, rows, inv_inertia, o.projection,
                            o.projection_tolerance, projection)
         t0 = _now(buf)
         t_stage[9] += t0 - t1

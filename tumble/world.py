@@ -8,7 +8,7 @@ import numpy as np
 
 from .errors import ModelError, SimulationError, StateError, TumbleWarning
 from .math.quat import quat_rotate, quat_rotate_inv
-from .model.model import DYNAMIC, STATIC, Model
+from .model.model import DYNAMIC, Model
 from .model.validate import positive
 from .pipeline import step as pipeline_step
 from .pipeline.contacts.arrays import ContactArrays, make_contacts
@@ -620,11 +620,6 @@ class World:
                 f"was before the call. Try a smaller dt or check the forces applied.",
                 body=self.model.body_names[b], step=int(k), time=t, world=int(w))
         self.time += n * self.dt
-        if self.parallel:                 # (the serial kernel clears them itself)
-            s = self._state
-            s.applied_force[:] = 0.0
-            s.applied_torque[:] = 0.0
-            s.joint_applied[:] = 0.0
 
     def _step_serial(self, n, options):
         """Checks, the step and its retries in compiled code (``step.step_checked``), called
@@ -661,12 +656,14 @@ class World:
         code, w, i = pipeline_step.check_drives(s, self._ball_joints)
         if code != pipeline_step.DRIVE_OK:
             raise self._drive_error(code, w, i)
+        pipeline_step.hold_static(self.model.arrays, s)
         pipeline_step.fold_position_actuators(self.model.arrays, s)
-        self._enforce_static()
         while True:
             status, w, k, b, needed = step_worlds_parallel(
                 self.model.arrays, s, self._contacts, self._pairs, n, options)
             if not self._grew_buffers(status, needed):
+                if status == pipeline_step.STEP_OK:
+                    pipeline_step.clear_applied(s)
                 return status, w, k, b
 
     def _grew_buffers(self, status, needed):
@@ -751,12 +748,6 @@ class World:
         for a, b in zip(new, old):
             a[:, :n] = b
         self._contacts = new
-
-    def _enforce_static(self):
-        static = self.model.body_kind == STATIC
-        if static.any():
-            self._state.body_vel[:, static] = 0.0
-            self._state.body_angvel[:, static] = 0.0
 
     # ----------------------------------------------------------------- joints
     @property

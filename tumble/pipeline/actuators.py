@@ -173,14 +173,20 @@ def stable_servo_forces(m, pos, quat, vel, angvel, drive, h, o_erp, o_cfm, gyros
 @njit(cache=True)
 def servoed_bodies(body_servo):
     """Indices of the bodies whose servo is on in any world: (ns,) int64."""
-    nw, nb = body_servo.shape[0], body_servo.shape[1]
-    on = np.zeros(nb, np.bool_)
-    for w in range(nw):
-        for b in range(nb):
-            for k in range(4):
-                if body_servo[w, b, k] > 0.0:
-                    on[b] = True
+    on = np.zeros(body_servo.shape[1], np.bool_)
+    for b in range(body_servo.shape[1]):
+        on[b] = servo_on(body_servo, b)
     return np.flatnonzero(on)
+
+
+@njit(cache=True, inline="always")
+def servo_on(body_servo, b):
+    """Whether body ``b``'s servo has a gain above zero in any world."""
+    for w in range(body_servo.shape[0]):
+        for k in range(4):
+            if body_servo[w, b, k] > 0.0:
+                return True
+    return False
 
 
 @noalloc

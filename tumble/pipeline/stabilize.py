@@ -59,7 +59,7 @@ def projection_setup(m, rows, nbody, enabled):
 
 
 @noalloc
-def project_joints(m, pos, quat, drive, rows, inv_inertia, iterations, tolerance, setup):
+def project_joints(m, pos, quat, rows, inv_inertia, iterations, tolerance, setup):
     """Move bodies so every rigid joint's core rows hold at the position level, once some
     row's error exceeds ``tolerance`` (m or rad); below it ERP alone corrects the drift.
     ``setup`` comes from ``projection_setup``.
@@ -69,14 +69,14 @@ def project_joints(m, pos, quat, drive, rows, inv_inertia, iterations, tolerance
     when the joints form loops."""
     idx, tree, plan, dv, b, A, work, reg, y, u, fzero, zero = setup
     n = idx.shape[0]
-    if n == 0 or _largest_core_error(m, pos, quat, drive, rows, idx, n, zero) < tolerance:
+    if n == 0 or _largest_core_error(m, pos, quat, rows, idx, n) < tolerance:
         return
-    _project(m, pos, quat, drive, rows, inv_inertia, iterations, tolerance, idx, n,
+    _project(m, pos, quat, rows, inv_inertia, iterations, tolerance, idx, n,
              tree, plan, dv, b, A, work, reg, y, u, fzero, zero)
 
 
 @noalloc
-def _largest_core_error(m, pos, quat, drive, rows, idx, n, zero):
+def _largest_core_error(m, pos, quat, rows, idx, n):
     """Largest position error (m or rad) of the rows ``idx``: the rhs of the core rows
     built with h = 1, ERP = 1 (``build_core_rows``), as ``_project`` measures it."""
     build_core_rows(m, pos, quat, rows)
@@ -87,7 +87,7 @@ def _largest_core_error(m, pos, quat, drive, rows, idx, n, zero):
 
 
 @noalloc
-def _project(m, pos, quat, drive, rows, inv_inertia, iterations, tolerance, idx, n, tree,
+def _project(m, pos, quat, rows, inv_inertia, iterations, tolerance, idx, n, tree,
              plan, dv, b, A, work, reg, y, u, fzero, zero):
     """The Gauss-Newton iterations of ``project_joints`` on its work arrays."""
     nb = pos.shape[0]

@@ -32,7 +32,7 @@ from .contacts.pairs import ROWS_SPIN, rows_per_contact
 from .contacts.penalty import penalty_forces
 from .contacts.rows import build_contact_rows, store_contact_impulses
 from .actuators import (PD_EXPLICIT, PD_IMPLICIT, PD_STABLE, actuator_forces, body_servo_rows,
-                        servoed_bodies, stable_servo_forces)
+                        servo_on, servoed_bodies, stable_servo_forces)
 from .forces import accumulate_forces
 from .integrate import first_bad_body, integrate_positions, integrate_velocities
 from .joints.rows import build_joint_rows, joint_coordinates, joint_reactions
@@ -291,9 +291,8 @@ def make_step_work(m, s, con, o):
     njrow = s.row_impulse.shape[1]
     cap = con.depth.shape[1]
     servoed = servoed_bodies(s.body_servo)
-    nfix = njrow + 6 * servoed.shape[0]      # joint rows, then body servo rows, then contacts
     nper = rows_per_contact(m)               # rows per contact: 3, or 6 with spin friction
-    ncap = nfix + (nper * cap if o.contact != CONTACT_PENALTY else 0)
+    ncap = _row_capacity(njrow, servoed.shape[0], nper, cap, o)
     rows = make_rows_nb(ncap)
     project = njrow > 0 and o.projection > 0
     key = np.array([cap, ncap, 1 if project else 0, nper], np.int64)
@@ -302,6 +301,13 @@ def make_step_work(m, s, con, o):
                     np.zeros((ng, 3)), make_contacts_nb(cap), np.empty((nb, 3)),
                     np.empty((nb, 3)), servoed, projection_setup(m, rows, nb, project),
                     make_solver_caches(m, servoed, nb))
+
+
+@njit(cache=True, inline="always")
+def _row_capacity(njrow, nservoed, nper, cap, o):
+    """Rows a step lays out: the joints', six per servoed body, then ``nper`` for each of
+    ``cap`` contacts unless contacts are penalty springs."""
+    return njrow + 6 * nservoed + (nper * cap if o.contact != CONTACT_PENALTY else 0)
 
 
 @noalloc
@@ -313,19 +319,13 @@ def work_fits(work, m, s, con, o):
     k = 0
     ns = work.servoed.shape[0]
     for b in range(s.body_servo.shape[1]):
-        on = False
-        for w in range(s.body_servo.shape[0]):
-            for c in range(4):
-                if s.body_servo[w, b, c] > 0.0:
-                    on = True
-        if on:
+        if servo_on(s.body_servo, b):
             if k >= ns or work.servoed[k] != b:
                 return False
             k += 1
     if k != ns:
         return False
-    nfix = njrow + 6 * ns
-    ncap = nfix + (work.key[3] * cap if o.contact != CONTACT_PENALTY else 0)
+    ncap = _row_capacity(njrow, ns, work.key[3], cap, o)
     project = njrow > 0 and o.projection > 0
     return (work.key[0] == cap and work.key[1] == ncap and work.key[2] == (1 if project else 0)
             and work.rows.rhs.shape[0] == ncap and work.gpos.shape[0] == m.geom_type.shape[0])
@@ -356,21 +356,31 @@ def step_checked(m, s, con, pairs, n, o, ball, work):
         return CALL_BAD_DRIVE, code, w, i, -1, 0
     if not work_fits(work, m, s, con, o):
         return CALL_NEW_WORK, 0, -1, -1, -1, 0
-    nw = s.body_pos.shape[0]
-    for b in range(m.body_kind.shape[0]):
-        if m.body_kind[b] == STATIC:
-            for w in range(nw):
-                for k in range(3):
-                    s.body_vel[w, b, k] = 0.0
-                    s.body_angvel[w, b, k] = 0.0
+    hold_static(m, s)
     fold_position_actuators(m, s)
     status, fw, fk, fb, needed = step_worlds(m, s, con, pairs, n, o, work)
     if status == STEP_OK:
-        # applied forces and joint torques last one call
-        s.applied_force[:] = 0.0
-        s.applied_torque[:] = 0.0
-        s.joint_applied[:] = 0.0
+        clear_applied(s)
     return CALL_STEPPED, status, fw, fb, fk, needed
+
+
+@noalloc
+def hold_static(m, s):
+    """Zero the velocities of static bodies in every world (a user may have written them)."""
+    for b in range(m.body_kind.shape[0]):
+        if m.body_kind[b] == STATIC:
+            for w in range(s.body_vel.shape[0]):
+                for k in range(3):
+                    s.body_vel[w, b, k] = 0.0
+                    s.body_angvel[w, b, k] = 0.0
+
+
+@noalloc
+def clear_applied(s):
+    """Applied forces, torques and joint torques last one step call: clear them after it."""
+    s.applied_force[:] = 0.0
+    s.applied_torque[:] = 0.0
+    s.joint_applied[:] = 0.0
 
 
 @noalloc
@@ -398,7 +408,7 @@ def step_worlds(m, s, con, pairs, n, o, work):
     the state first became non-finite or ran away; or STEP_MORE_PAIRS / STEP_MORE_CONTACTS
     with the buffer size needed. On any failure ``s`` is restored to its input.
     """
-    nw, nb = s.body_pos.shape[0], s.body_pos.shape[1]
+    nw = s.body_pos.shape[0]
     ng = m.geom_type.shape[0]
     njrow = s.row_impulse.shape[1]
     h = o.dt
@@ -484,7 +494,7 @@ def step_worlds(m, s, con, pairs, n, o, work):
                     store_contact_impulses(cw, ncon, nfix, nper, imp)
             integrate_positions(m, pos, quat, vel, angvel, h, o.quat_integration)
             if njrow > 0 and o.projection > 0:
-                project_joints(m, pos, quat, drive, rows, inv_inertia, o.projection,
+                project_joints(m, pos, quat, rows, inv_inertia, o.projection,
                                o.projection_tolerance, projection)
             bad = first_bad_body(pos, quat, vel, angvel, o.divergence_limit)
             if bad >= 0:

@@ -405,6 +405,12 @@ def pyramid_residual(rows, n, S, c, p):
     return worst
 
 
+def scratch(n):
+    """The work arrays ``mlcp._guessed_active_set`` takes after ``p``."""
+    return (np.arange(n), np.empty(n, np.int64), np.empty((n, n)), np.empty((n, n)),
+            np.empty(n), np.empty(n), np.empty(n))
+
+
 def contact_problem(rng, ncontact, nbox, nbody):
     """Rows of ``ncontact`` contacts (a normal and two tangents in one pyramid group) and
     ``nbox`` box rows, acting on ``nbody`` random bodies, and their ``S``, ``c``."""
@@ -457,8 +463,7 @@ def test_guessed_active_set_solves_the_lcp(seed, ncontact, nbox, nbody, guess):
         if ML._guess_states(rows, idx, where, kind, oth, n, p_ref, state):
             p2 = np.zeros(n)
             took = ML._guessed_active_set(rows, idx, where, kind, oth, n, S, c, state, p2,
-                                          np.empty((n, n)), np.empty(n), np.empty(n),
-                                          np.empty(n, np.int64), np.empty(n), np.empty((n, n)))
+                                          *scratch(n))
             if took:
                 np.testing.assert_allclose(p2, p_ref, rtol=0,
                                            atol=1e-8 * max(1.0, np.abs(p_ref).max()))
@@ -484,7 +489,6 @@ def test_right_guess_skips_lemke():
             continue
         p = np.zeros(n)
         assert ML._guessed_active_set(rows, idx, where, kind, oth, n, S, c, state, p,
-                                      np.empty((n, n)), np.empty(n), np.empty(n),
-                                      np.empty(n, np.int64), np.empty(n), np.empty((n, n)))
+                                      *scratch(n))
         took += 1
     assert took >= 10 and took + sliding == 40

@@ -89,8 +89,7 @@ def build_joint_rows(m, pos, quat, vel, angvel, drive, h, erp, cfm, rows, servo_
         servo = servo_rows and servo_active(drive, j)
         if servo:
             err = pd_error(t, q, frame_a, frame_b, drive.target_quat[j], drive.target_q[j])
-        swing_twist = t == BALL and (m.joint_cone[j, 0] > 0.0
-                                     or m.joint_twist[j, 0] <= m.joint_twist[j, 1])
+        swing_twist = _has_swing_twist(m, j)
         for d in range(n):
             e_ax = axes[d]
             if not swing_twist:      # (a cone's or twist's rows: _swing_twist_rows below)
@@ -141,8 +140,7 @@ def build_core_rows(m, pos, quat, rows):
 def _swing_twist_rows(m, pos, quat, vel, angvel, h, erp, cfm, rows):
     """The limit rows of every ball joint with a swing cone or twist range."""
     for j in range(m.joint_type.shape[0]):
-        if not (m.joint_type[j] == BALL and (m.joint_cone[j, 0] > 0.0
-                                             or m.joint_twist[j, 0] <= m.joint_twist[j, 1])):
+        if not _has_swing_twist(m, j):
             continue
         erp_h, cfm_v = _joint_erp_cfm(m, j, h, erp, cfm)
         anchor_a, anchor_b, r_a, r_b, frame_a, frame_b = joint_frames(m, pos, quat, j)
@@ -152,6 +150,13 @@ def _swing_twist_rows(m, pos, quat, vel, angvel, h, erp, cfm, rows):
             _swing_twist_row(m, rows, r, j, d, a, b, frame_a, frame_b, vel, angvel, h,
                              erp_h, cfm_v, r_a, r_b)
             r += ROWS_PER_DOF
+
+
+@njit(cache=True, inline="always")
+def _has_swing_twist(m, j):
+    """Whether joint j is a ball joint limited by a swing cone or a twist range."""
+    return m.joint_type[j] == BALL and (m.joint_cone[j, 0] > 0.0
+                                        or m.joint_twist[j, 0] <= m.joint_twist[j, 1])
 
 
 @njit(cache=True, inline="always")

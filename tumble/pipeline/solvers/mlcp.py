@@ -34,7 +34,7 @@ from numba import njit
 
 from ..._jit import noalloc
 from ..joints.common import INF
-from .common import active_rows, apply_impulses, make_rows_nb, minv_jt, row_velocity
+from .common import active_rows, apply_impulses, minv_jt, row_velocity
 from .direct import assemble, cholesky_apply, cholesky_factor, row_dot
 from .lemke import LEMKE_INACCURATE, LEMKE_SOLVED, VERIFY_TOL as _VERIFY_TOL, lemke, lemke_warm
 from .tree import (cached_tree_plan, make_plan_cache, tree_body_inverse, tree_factor,
@@ -179,17 +179,7 @@ def _mlcp_tree(rows, nrow, idx, where, n, kind, bil, nb, oth, nn, bsel, plan, in
         sub[a] = a
     S, cvec, slot, alone, dva = _complement(rows, idx, oth, sub, nn, b, plan, nb, inv_mass,
                                             inv_inertia, u0)
-    if guessed:
-        if _guessed_active_set(rows, idx, where, kind, oth, nn, S, cvec, state, p_n,
-                               np.empty((nn, nn)), np.empty(nn), np.empty(nn),
-                               np.empty(nn, np.int64), np.empty(nn), np.empty((nn, nn))):
-            status = LEMKE_SOLVED
-        else:
-            status = _pyramid_lcp(rows, idx, where, kind, oth, nn, S, cvec, impulse,
-                                  max_pivots, False, p_n)
-    else:
-        status = _pyramid_lcp(rows, idx, where, kind, oth, nn, S, cvec, impulse, max_pivots,
-                              True, p_n)
+    status = _lcp_on_schur(rows, idx, where, kind, oth, nn, S, cvec, impulse, max_pivots, p_n)
     if status != LEMKE_SOLVED:
         return status
     _respond(rows, idx, oth, sub, nn, p_n, plan, nb, slot, alone, dva, vel, angvel, u0, vn, y1)
@@ -298,47 +288,18 @@ def _guess_on_tree(rows, idx, where, kind, oth, nn, sub, ns, state, b, plan, nb,
     False leaves the full complement to decide."""
     S, cvec, slot, alone, dva = _complement(rows, idx, oth, sub, ns, b, plan, nb, inv_mass,
                                             inv_inertia, u0)
-    free = np.empty(ns, np.int64)
-    nf = 0
-    for t in range(ns):
-        a = sub[t]
-        r = idx[oth[a]]
-        if state[a] == _EQUAL:
-            free[nf] = t
-            nf += 1
-            p[a] = 0.0
-        else:
-            p[a] = rows.hi[r] if state[a] == _AT_HI else rows.lo[r]
-    sub_m = np.empty((nf, nf))
-    rhs = np.empty(nf)
-    x = np.empty(nf)
-    for u in range(nf):
-        t = free[u]
-        acc = cvec[t]
-        for v in range(ns):
-            if state[sub[v]] != _EQUAL:
-                acc -= S[t, v] * p[sub[v]]
-        rhs[u] = acc
-        for v in range(nf):
-            sub_m[u, v] = S[t, free[v]]
-    fac = np.empty((nf, nf))
-    if not cholesky_factor(sub_m, nf, fac, _REDUNDANT):
+    ok, pmax = _solve_held(rows, idx, oth, sub, ns, state, S, cvec, p, np.empty(ns, np.int64),
+                           np.empty((ns, ns)), np.empty((ns, ns)), np.empty(ns), np.empty(ns))
+    if not ok:
         return False
-    cholesky_apply(fac, rhs, nf, x)
     cmax = 1e-300
     smax = 1e-300
-    pmax = 0.0
-    for u in range(nf):
-        p[sub[free[u]]] = x[u]
-        pmax = max(pmax, abs(x[u]))
     for t in range(ns):
         smax = max(smax, abs(S[t, t]))
+        cmax = max(cmax, abs(cvec[t]))
     for a in range(nn):
         cmax = max(cmax, abs(b[oth[a]]))
-    for t in range(ns):
-        cmax = max(cmax, abs(cvec[t]))
-    tol_w = _GUESS_TOL * (cmax + smax * pmax)
-    tol_p = tol_w / smax
+    tol_w, tol_p = _slack(cmax, smax, pmax)
     if not _holding_ok(rows, idx, where, kind, oth, nn, state, p, tol_p):
         return False
     _respond(rows, idx, oth, sub, ns, p, plan, nb, slot, alone, dva, vel, angvel, u0, vn, y1)
@@ -358,10 +319,64 @@ def _guess_on_tree(rows, idx, where, kind, oth, nn, sub, ns, state, b, plan, nb,
             normal = _normal_of(rows, where, oth, nn, r)
             if normal >= 0 and state[normal] == _EQUAL:
                 return False
+    _clamp_round_off(kind, oth, nn, p)
+    return True
+
+
+@noalloc
+def _solve_held(rows, idx, oth, sub, ns, state, S, cvec, p, free, mat, fac, rhs, x):
+    """The impulses of the rows ``oth[sub[:ns]]`` in their ``state`` (indexed like
+    ``oth``), ``S`` and ``c`` indexed by position in ``sub``: rows at a bound keep it,
+    zero rows nothing, and the held rows solve ``S_HH p_H = c_H - S_HB p_B`` (Cholesky).
+    Returns (ok, largest held impulse); ok is False for dependent held rows.
+    free (ns,) int64, mat, fac (ns, ns), rhs, x (ns,) are scratch."""
+    nf = 0
+    for t in range(ns):
+        a = sub[t]
+        r = idx[oth[a]]
+        if state[a] == _EQUAL:
+            free[nf] = t
+            nf += 1
+            p[a] = 0.0
+        elif state[a] == _AT_HI:
+            p[a] = rows.hi[r]
+        elif state[a] == _AT_LO:
+            p[a] = rows.lo[r]
+        else:
+            p[a] = 0.0
+    for u in range(nf):
+        t = free[u]
+        acc = cvec[t]
+        for v in range(ns):
+            if state[sub[v]] == _AT_HI or state[sub[v]] == _AT_LO:
+                acc -= S[t, v] * p[sub[v]]
+        rhs[u] = acc
+        for v in range(nf):
+            mat[u, v] = S[t, free[v]]
+    if not cholesky_factor(mat, nf, fac, _REDUNDANT):
+        return False, 0.0
+    cholesky_apply(fac, rhs, nf, x)
+    pmax = 0.0
+    for u in range(nf):
+        p[sub[free[u]]] = x[u]
+        pmax = max(pmax, abs(x[u]))
+    return True, pmax
+
+
+@njit(cache=True, inline="always")
+def _slack(cmax, smax, pmax):
+    """(velocity, impulse) slack of the complementarity checks for a problem whose
+    largest ``|c|``, diagonal of ``S`` and impulse are these: ``_GUESS_TOL`` of its scale."""
+    tol_w = _GUESS_TOL * (cmax + smax * pmax)
+    return tol_w, tol_w / smax
+
+
+@noalloc
+def _clamp_round_off(kind, oth, nn, p):
+    """Normals and limits a hair below zero (round-off inside the slack) to zero."""
     for a in range(nn):
         if kind[oth[a]] == KIND_UNILATERAL and p[a] < 0.0:
-            p[a] = 0.0                           # round-off below the slack
-    return True
+            p[a] = 0.0
 
 
 @noalloc
@@ -468,8 +483,8 @@ def _lcp_on_schur(rows, idx, where, kind, oth, nn, S, cvec, impulse, max_pivots,
     state = np.zeros(nn, np.int64)
     if _guess_states(rows, idx, where, kind, oth, nn, impulse, state):
         if _guessed_active_set(rows, idx, where, kind, oth, nn, S, cvec, state, p_n,
-                               np.empty((nn, nn)), np.empty(nn), np.empty(nn),
-                               np.empty(nn, np.int64), np.empty(nn), np.empty((nn, nn))):
+                               np.arange(nn), np.empty(nn, np.int64), np.empty((nn, nn)),
+                               np.empty((nn, nn)), np.empty(nn), np.empty(nn), np.empty(nn)):
             return LEMKE_SOLVED
         return _pyramid_lcp(rows, idx, where, kind, oth, nn, S, cvec, impulse, max_pivots,
                             False, p_n)
@@ -524,48 +539,23 @@ def _guess_states(rows, idx, where, kind, oth, nn, impulse, state):
 
 
 @noalloc
-def _guessed_active_set(rows, idx, where, kind, oth, nn, S, cvec, state, p, sub, rhs, x,
-                        free, w, fac):
+def _guessed_active_set(rows, idx, where, kind, oth, nn, S, cvec, state, p, every, free, mat,
+                        fac, rhs, x, w):
     """Solve the rows in ``state`` and check complementarity; on failure correct the
     states (a normal pulling lets go, a row moving into its bound holds) and retry, up
     to ``_GUESS_ROUNDS`` times. True when ``p`` (nn,) solves the mixed LCP, every
-    inequality holding to ``_GUESS_TOL`` of the problem's scale. sub, fac (nn, nn), rhs,
-    x, w (nn,), free (nn,) int64 are scratch."""
+    inequality holding to ``_GUESS_TOL`` of the problem's scale. ``every`` (nn,) int64
+    holds 0 .. nn-1; free (nn,) int64, mat, fac (nn, nn), rhs, x, w (nn,) are scratch."""
     cmax = 1e-300
     smax = 1e-300
     for a in range(nn):
         cmax = max(cmax, abs(cvec[a]))
         smax = max(smax, abs(S[a, a]))
     for it in range(_GUESS_ROUNDS):
-        nf = 0
-        for a in range(nn):
-            r = idx[oth[a]]
-            if state[a] == _EQUAL:
-                free[nf] = a
-                nf += 1
-                p[a] = 0.0
-            elif state[a] == _AT_HI:
-                p[a] = rows.hi[r]
-            elif state[a] == _AT_LO:
-                p[a] = rows.lo[r]
-            else:
-                p[a] = 0.0
-        for u in range(nf):
-            a = free[u]
-            s = cvec[a]
-            for c in range(nn):
-                if state[c] == _AT_HI or state[c] == _AT_LO:
-                    s -= S[a, c] * p[c]
-            rhs[u] = s
-            for v in range(nf):
-                sub[u, v] = S[a, free[v]]
-        if not cholesky_factor(sub, nf, fac, _REDUNDANT):
+        ok, pmax = _solve_held(rows, idx, oth, every, nn, state, S, cvec, p, free, mat, fac,
+                               rhs, x)
+        if not ok:
             return False
-        cholesky_apply(fac, rhs, nf, x)
-        pmax = 0.0
-        for u in range(nf):
-            p[free[u]] = x[u]
-            pmax = max(pmax, abs(x[u]))
         for a in range(nn):
             if state[a] == _EQUAL:
                 w[a] = 0.0
@@ -575,8 +565,7 @@ def _guessed_active_set(rows, idx, where, kind, oth, nn, S, cvec, state, p, sub,
                 if p[c] != 0.0:
                     s += S[a, c] * p[c]
             w[a] = s
-        tol_w = _GUESS_TOL * (cmax + smax * pmax)
-        tol_p = tol_w / smax
+        tol_w, tol_p = _slack(cmax, smax, pmax)
         changed = False
         for a in range(nn):
             i = oth[a]
@@ -622,9 +611,7 @@ def _guessed_active_set(rows, idx, where, kind, oth, nn, S, cvec, state, p, sub,
                                   > rows.mu[r] * max(p[normal], 0.0) + tol_p):
                 return False
         if not changed:
-            for a in range(nn):
-                if kind[oth[a]] == KIND_UNILATERAL and p[a] < 0.0:
-                    p[a] = 0.0                   # round-off below the slack
+            _clamp_round_off(kind, oth, nn, p)
             return True
     return False
 
