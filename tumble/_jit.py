@@ -23,6 +23,12 @@ typing error on the allocating call):
 Calling ordinary compiled functions that allocate internally and return numbers is fine.
 If the running Numba has no ``_nrt`` option, ``noalloc`` is plain ``njit``: correct,
 only slower.
+
+Compiled callers pass typed constants (``np.int64(0)``, ``np.bool_(True)``) and start
+counters as ``np.int64(0)``, never bare literals: Numba compiles a callee once for a
+literal argument (``Literal[int](0)``) and once more for the plain type, which across
+the step cost as much compile time as a dozen kernels. For the same reason tests hand
+kernels the array types the pipeline does (read-only model arrays, int32 indices).
 """
 from numba import njit
 

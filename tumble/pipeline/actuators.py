@@ -105,7 +105,7 @@ def actuator_forces(m, pos, quat, vel, angvel, drive, ctrl, mode, force, torque)
     for i in range(m.act_joint.shape[0]):
         if m.act_folded[i]:
             continue
-        j = m.act_joint[i]
+        j = np.int64(m.act_joint[i])
         a, b = m.joint_parent[j], m.joint_child[j]
         n, axes, q, linear, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b = joint_dofs(m, pos, quat, j)
         e = quat_rotate(frame_a, (m.act_axis[i, 0], m.act_axis[i, 1], m.act_axis[i, 2]))
@@ -145,8 +145,9 @@ def stable_servo_forces(m, pos, quat, vel, angvel, drive, h, o_erp, o_cfm, gyros
     vel_pred[:] = vel
     angvel_pred[:] = angvel
     integrate_velocities(m, quat, vel_pred, angvel_pred, force, torque, h, gyroscopic)
-    build_joint_rows(m, pos, quat, vel_pred, angvel_pred, drive, h, o_erp, o_cfm, rows, True)
-    njrow = 0
+    build_joint_rows(m, pos, quat, vel_pred, angvel_pred, drive, h, o_erp, o_cfm, rows,
+                     np.bool_(True))
+    njrow = np.int64(0)
     for j in range(nj):
         njrow = max(njrow, m.joint_row_start[j] + m.joint_row_count[j])
     imp[:njrow] = 0.0

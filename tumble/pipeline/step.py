@@ -189,24 +189,24 @@ def check_drives(s, ball):
     fields3 = (s.motor_target, s.pd_target_quat, s.pd_target_q, s.pd_target_qd,
                s.joint_applied)
     for f in range(5):
-        w, i = _first_bad_3d(fields3[f], False)
+        w, i = _first_bad_3d(fields3[f], np.bool_(False))
         if w >= 0:
             return f, w, i
-    w, i = _first_bad_2d(s.ctrl, False)
+    w, i = _first_bad_2d(s.ctrl, np.bool_(False))
     if w >= 0:
         return 5, w, i
-    w, i = _first_bad_2d(s.pd_kp, True)
+    w, i = _first_bad_2d(s.pd_kp, np.bool_(True))
     if w >= 0:
         return 6, w, i
-    w, i = _first_bad_2d(s.pd_kd, True)
+    w, i = _first_bad_2d(s.pd_kd, np.bool_(True))
     if w >= 0:
         return 7, w, i
-    w, i = _first_bad_3d(s.body_servo, True)
+    w, i = _first_bad_3d(s.body_servo, np.bool_(True))
     if w >= 0:
         return 8, w, i
     targets = (s.body_target_pos, s.body_target_quat, s.body_target_vel, s.body_target_angvel)
     for f in range(4):
-        w, i = _first_bad_3d(targets[f], False)
+        w, i = _first_bad_3d(targets[f], np.bool_(False))
         if w >= 0:
             return 9 + f, w, i
     nw = s.body_pos.shape[0]
@@ -247,7 +247,7 @@ def solve_rows(m, rows, nrow, njrow, ncon, inv_inertia, vel, angvel, imp, o, cac
                      caches[0])
         return 0
     # exact: the mixed LCP by Lemke; if Lemke reports failure, PGS from the warm start
-    status = solve_mlcp(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp, 0,
+    status = solve_mlcp(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp, np.int64(0),
                         caches[1])
     if status != 0:
         solve_pgs(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp, o.iterations,
@@ -440,7 +440,7 @@ def step_worlds(m, s, con, pairs, n, o, work):
                            s.pd_target_quat[w], s.pd_target_q[w], s.pd_target_qd[w],
                            s.joint_applied[w])
         for k in range(n):
-            ncon = 0
+            ncon = np.int64(0)
             if ng > 1:
                 nprev = s.contact_count[w]
                 for c in range(nprev):

@@ -27,6 +27,13 @@ def brute_force(lo, hi, body=None):
     return out
 
 
+def distinct_bodies(n):
+    """A body per geom (nothing filtered), typed as the pipeline's ``geom_body``."""
+    body = np.arange(n, dtype=np.int32)
+    body.flags.writeable = False
+    return body
+
+
 def random_geoms(rng, n, nplanes, nstatic, spread, size_scale):
     """AABBs (with margin) of ``n`` randomly posed spheres, capsules, boxes and cylinders
     of sizes over two decades, ``nplanes`` planes and ``nstatic`` large static boxes
@@ -83,8 +90,8 @@ def test_grid_exact_for_any_cell_size(seed, n, scale):
     half = rng.choice([0.125, 0.25, 0.5], (n, 3))
     lo, hi = c - half, c + half
     expect = brute_force(lo, hi)
-    out = np.zeros((len(expect) + 1, 2), np.int64)
-    cnt = grid_pairs(lo, hi, out, None, scale)
+    out = np.zeros((len(expect) + 1, 2), np.int32)
+    cnt = grid_pairs(lo, hi, out, distinct_bodies(n), scale)
     assert cnt == len(expect) and [tuple(r) for r in out[:cnt]] == expect
 
 
@@ -97,9 +104,9 @@ def test_grid_edge_cases():
     assert [tuple(r) for r in find_pairs(lo, lo + 1.0, method="grid")] == [(0, 1), (2, 3)]
     # overflow: the total is returned and only ``cap`` rows written
     lo = np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0.0]])
-    out = np.full((1, 2), -1, np.int64)
+    out = np.full((1, 2), -1, np.int32)
     for code in BROADPHASES.values():
-        assert overlapping_pairs(code, lo, lo + 1.0, out) == 2
+        assert overlapping_pairs(code, lo, lo + 1.0, out, distinct_bodies(3)) == 2
         assert out[0, 0] >= 0
     assert find_pairs(lo[:1], lo[:1] + 1.0, method="grid").shape == (0, 2)
     assert find_pairs(np.zeros((0, 3)), np.zeros((0, 3)), method="grid").shape == (0, 2)

@@ -35,6 +35,12 @@ def rmat(q):
     return Rotation.from_quat(q).as_matrix()
 
 
+def _readonly(x):
+    a = np.array(x, dtype=float)
+    a.flags.writeable = False
+    return a
+
+
 def collide(ta, pa, qa, sa, tb, pb, qb, sb, margin=1e-3):
     """collide_pair into arrays pre-filled with NaN, from row 2; checks the rows
     outside the written range are untouched. Returns (points, normals, depths, features)."""
@@ -43,7 +49,9 @@ def collide(ta, pa, qa, sa, tb, pb, qb, sb, margin=1e-3):
     D = np.full(8, np.nan)
     F = np.full(8, -99, dtype=np.int64)
     f = lambda x: np.asarray(x, dtype=float)  # noqa: E731
-    n = collide_pair(ta, f(pa), f(qa), f(sa), tb, f(pb), f(qb), f(sb), float(margin), P, N, D, F, 2)
+    # sizes read-only, as the model's arrays reach the kernel (one compilation for both)
+    n = collide_pair(ta, f(pa), f(qa), _readonly(sa), tb, f(pb), f(qb), _readonly(sb),
+                     float(margin), P, N, D, F, 2)
     assert 0 <= n <= 4
     assert np.all(np.isnan(D[:2])) and np.all(np.isnan(D[2 + n:]))
     assert np.all(F[:2] == -99) and np.all(F[2 + n:] == -99)

@@ -6,7 +6,6 @@ flat or planar heightfield like a plane) and closed forms. Tolerances: 1e-9 wher
 sides are closed forms, 1e-6 where GJK/MPR is involved.
 """
 import math
-from collections import namedtuple
 
 import numpy as np
 import pytest
@@ -14,13 +13,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
+from tumble.model.builder import ModelBuilder
+from tumble.model.model import GEOM_TYPES
 from tumble.pipeline.collision.dispatch import (collide_geoms, geom_aabb_any, geom_distance_any,
                                                 raycast_any)
 from tumble.pipeline.collision.shapes import (BOX, CAPSULE, CONVEX, CYLINDER, HEIGHTFIELD,
                                               PLANE, SPHERE)
 
-Model = namedtuple("Model", "geom_type geom_size geom_dataid mesh_vert_adr mesh_vert_num "
-                            "mesh_vert hfield_adr hfield_nrow hfield_ncol hfield_data")
 I4 = np.array([0.0, 0.0, 0.0, 1.0])
 Z3 = np.zeros(3)
 EZ = np.array([0.0, 0.0, 1.0])
@@ -30,37 +29,22 @@ TOL_GJK = 1e-6
 
 
 def build(geoms):
-    """A model from ``[(type, size, data)]``: data is the hull points (k, 3) for CONVEX,
-    the heights (nrow, ncol) for HEIGHTFIELD, None otherwise."""
-    types, sizes, ids = [], [], []
-    verts, vadr, vnum = [], [], []
-    hdata, hadr, hnr, hnc = [], [], [], []
-    nv = nh = 0
+    """The compiled arrays of a model whose world holds ``[(type, size, data)]`` in that
+    order: data is the hull points (k, 3) for CONVEX, the heights (nrow, ncol) for
+    HEIGHTFIELD, None otherwise. Built by ``ModelBuilder`` so that the kernels see the
+    array types the pipeline gives them (and compile once for both)."""
+    b = ModelBuilder()
+    names = {code: name for name, code in GEOM_TYPES.items()}
     for t, size, data in geoms:
-        types.append(t)
-        sizes.append(np.resize(np.asarray(size, float), 3) if size is not None else Z3)
         if t == CONVEX:
-            v = np.asarray(data, float)
-            ids.append(len(vadr))
-            vadr.append(nv)
-            vnum.append(len(v))
-            verts.append(v)
-            nv += len(v)
+            b.add_geom(None, "convex", vertices=np.asarray(data, float))
         elif t == HEIGHTFIELD:
-            h = np.asarray(data, float)
-            ids.append(len(hadr))
-            hadr.append(nh)
-            hnr.append(h.shape[0])
-            hnc.append(h.shape[1])
-            hdata.append(h.ravel())
-            nh += h.size
+            b.add_geom(None, "heightfield", size=size, heights=np.asarray(data, float))
+        elif t == PLANE:
+            b.add_geom(None, "plane")
         else:
-            ids.append(-1)
-    i32 = lambda x: np.array(x, dtype=np.int32)  # noqa: E731
-    return Model(i32(types), np.array(sizes, float), i32(ids), i32(vadr), i32(vnum),
-                 np.ascontiguousarray(np.vstack(verts) if verts else np.zeros((0, 3))),
-                 i32(hadr), i32(hnr), i32(hnc),
-                 np.ascontiguousarray(np.concatenate(hdata) if hdata else np.zeros(0)))
+            b.add_geom(None, names[t], size=size)
+    return b.build().arrays
 
 
 def collide(m, ga, pa, qa, gb, pb, qb, margin=1e-3):
@@ -70,7 +54,9 @@ def collide(m, ga, pa, qa, gb, pb, qb, margin=1e-3):
     D = np.full(8, np.nan)
     F = np.full(8, -99, dtype=np.int64)
     f = lambda x: np.asarray(x, dtype=float)  # noqa: E731
-    n = collide_geoms(m, ga, f(pa), f(qa), gb, f(pb), f(qb), float(margin), P, N, D, F, 2)
+    # geom indices as the pipeline's pair buffer holds them (int32): one compilation for both
+    n = collide_geoms(m, np.int32(ga), f(pa), f(qa), np.int32(gb), f(pb), f(qb), float(margin),
+                      P, N, D, F, 2)
     assert 0 <= n <= 4
     assert np.all(np.isnan(D[:2])) and np.all(np.isnan(D[2 + n:]))
     assert np.all(F[:2] == -99) and np.all(F[2 + n:] == -99)

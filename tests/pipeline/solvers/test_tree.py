@@ -8,7 +8,7 @@ to the largest impulse) and the same number of active-set iterations; graphs wit
 must be refused by the planner and still solved (densely).
 """
 import numpy as np
-from hypothesis import given, settings, strategies as st
+from hypothesis import example, given, settings, strategies as st
 
 import tumble
 from bench import tumble_scenes
@@ -63,6 +63,7 @@ def random_system(rng, parents, kinematic=(), bounds=True, max_rows=6):
                 f = 0.3 * abs(rng.normal())                      # a motor or dry friction
                 rows.lo[r], rows.hi[r] = -f, f
             r += 1
+    inv_mass.flags.writeable = False          # as the model hands it to the solvers
     return rows, nrow, inv_mass, inv_inertia
 
 
@@ -376,6 +377,9 @@ def pyramid_residual(rows, n, S, c, p):
     inside ``mu p_n`` with w = 0, or on it with ``w_i = -lambda sign(p_i)`` and
     ``|w_i| <= lambda`` where ``p_i = 0``."""
     w = S @ p - c
+    # a row is at a bound, or a group slips, beyond the round-off of p and of S p - c
+    at_tol = 1e-12 * max(1.0, np.abs(p).max())
+    slip_tol = 1e-9 * (np.abs(c).max() + np.abs(S).max() * max(1.0, np.abs(p).max()))
     worst = 0.0
     groups = {}
     for i in range(n):
@@ -386,9 +390,9 @@ def pyramid_residual(rows, n, S, c, p):
         else:
             F = rows.hi[i]
             worst = max(worst, abs(p[i]) - F)
-            if p[i] >= F - 1e-12:
+            if p[i] >= F - at_tol:
                 worst = max(worst, w[i])
-            elif p[i] <= -F + 1e-12:
+            elif p[i] <= -F + at_tol:
                 worst = max(worst, -w[i])
             else:
                 worst = max(worst, abs(w[i]))
@@ -398,9 +402,9 @@ def pyramid_residual(rows, n, S, c, p):
         worst = max(worst, load - bound)
         lam = max(abs(w[i]) for i in members)
         for i in members:
-            if abs(p[i]) > 1e-12:
+            if abs(p[i]) > at_tol:
                 worst = max(worst, abs(w[i] + lam * np.sign(p[i])))
-        if lam > 1e-9:
+        if lam > slip_tol:
             worst = max(worst, abs(load - bound))
     return worst
 
@@ -436,6 +440,8 @@ def contact_problem(rng, ncontact, nbox, nbody):
 @FAST
 @given(seed=st.integers(0, 2**32 - 1), ncontact=st.integers(1, 6), nbox=st.integers(0, 2),
        nbody=st.integers(1, 3), guess=st.sampled_from(["right", "perturbed", "zero", "random"]))
+# huge, sticking impulses on one body: the slip test must allow for the round-off of S p
+@example(seed=327960338, ncontact=5, nbox=2, nbody=1, guess="right")
 def test_guessed_active_set_solves_the_lcp(seed, ncontact, nbox, nbody, guess):
     """Whatever last step's impulses say, the complement's LCP gets a solution (to 1e-8
     of its scale); from the right guess the active-set path takes it without Lemke

@@ -135,16 +135,19 @@ def find_pairs(aabb_lo, aabb_hi, geom_body=None, method="sap"):
     code = BROADPHASES[method]
     aabb_lo = np.ascontiguousarray(aabb_lo, dtype=np.float64)
     aabb_hi = np.ascontiguousarray(aabb_hi, dtype=np.float64)
+    # the kernels get the pipeline's types (int32 pairs, a read-only int32 body per geom;
+    # distinct ids filter nothing), so that both share one compilation
+    if geom_body is None:
+        body = np.arange(aabb_lo.shape[0], dtype=np.int32)
+    else:
+        body = np.array(geom_body, dtype=np.int32)
+    body.flags.writeable = False
     cap = max(16, 4 * aabb_lo.shape[0])
     while True:
-        out = np.empty((cap, 2), dtype=np.int64)
-        if geom_body is None:
-            n = overlapping_pairs(code, aabb_lo, aabb_hi, out)
-        else:
-            n = overlapping_pairs(code, aabb_lo, aabb_hi, out,
-                                  np.ascontiguousarray(geom_body, dtype=np.int64))
+        out = np.empty((cap, 2), dtype=np.int32)
+        n = overlapping_pairs(code, aabb_lo, aabb_hi, out, body)
         if n <= cap:
-            return out[:n].copy()
+            return out[:n].astype(np.int64)
         cap = n
 
 

@@ -158,7 +158,8 @@ def _add_single(cnt, dmax, depth0, n, xa, xb, tol, out_point, out_normal, out_de
             if out_depth[start + i] < out_depth[row]:
                 row = start + i
         cnt = 3
-    write_contact(out_point, out_normal, out_depth, out_feature, row, mid(xa, xb), n, depth0, 0)
+    write_contact(out_point, out_normal, out_depth, out_feature, row, mid(xa, xb), n, depth0,
+                  np.int64(0))
     return cnt + 1
 
 
@@ -188,14 +189,14 @@ def collide_capsule_cylinder(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margi
                                        sb)
     if depth0 <= -margin:
         return 0
-    cnt = 0
+    cnt = np.int64(0)
     dmax = -math.inf
     al, cc, c, code = _cap(pb, qb, sb[1], n, -1.0)
     if al >= COS_FACE:
         t1 = any_perp(c)
         t2 = vcross(c, t1)
         cnt, dmax = face_manifold(np.int64(CAPSULE), pa, qa, sa, cc, c, t1, t2, sb[0], sb[0],
-                                  bool(True), margin, bool(True), _face_feature(1, code),
+                                  bool(True), margin, bool(True), _face_feature(np.int64(1), code),
                                   out_point, out_normal,
                                   out_depth, out_feature, start)
     tol = 1e-6 * (shape_scale(np.int64(CAPSULE), sa) + shape_scale(np.int64(CYLINDER), sb))
@@ -229,7 +230,7 @@ def collide_box_cylinder(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, o
     e2 = sa[(k + 2) % 3]
     r = sb[0]
     use_box = box_ok and (not cap_ok or 4.0 * e1 * e2 >= math.pi * r * r)
-    cnt = 0
+    cnt = np.int64(0)
     dmax = -math.inf
     for attempt in range(2):
         if cnt > 0:
@@ -239,15 +240,15 @@ def collide_box_cylinder(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, o
                 cnt, dmax = face_manifold(np.int64(CYLINDER), pb, qb, sb, madd(pa, f, sa[k]), f,
                                           A[(k + 1) % 3], A[(k + 2) % 3], e1, e2, bool(False),
                                           margin, bool(False),
-                                          _face_feature(0, 2 * k + (1 if s > 0.0 else 0)),
+                                          _face_feature(np.int64(0), 2 * k + (1 if s > 0.0 else 0)),
                                           out_point, out_normal, out_depth, out_feature, start)
         elif cap_ok:
             t1 = any_perp(c)
             t2 = vcross(c, t1)
             cnt, dmax = face_manifold(np.int64(BOX), pa, qa, sa, cc, c, t1, t2, r, r, bool(True),
                                       margin, bool(True),
-                                      _face_feature(1, code), out_point, out_normal, out_depth,
-                                      out_feature, start)
+                                      _face_feature(np.int64(1), code), out_point, out_normal,
+                                      out_depth, out_feature, start)
     tol = 1e-6 * (shape_scale(np.int64(BOX), sa) + shape_scale(np.int64(CYLINDER), sb))
     return _add_single(cnt, dmax, depth0, n, xa, xb, tol, out_point, out_normal, out_depth,
                        out_feature, start)
@@ -268,7 +269,7 @@ def collide_cylinder_cylinder(pos_a, quat_a, size_a, pos_b, quat_b, size_b, marg
     oka = ala >= COS_FACE
     okb = alb >= COS_FACE
     use_a = oka and (not okb or sa[0] >= sb[0])
-    cnt = 0
+    cnt = np.int64(0)
     dmax = -math.inf
     for attempt in range(2):
         if cnt > 0:
@@ -279,15 +280,16 @@ def collide_cylinder_cylinder(pos_a, quat_a, size_a, pos_b, quat_b, size_b, marg
                 t2 = vcross(ca, t1)
                 cnt, dmax = face_manifold(np.int64(CYLINDER), pb, qb, sb, cca, ca, t1, t2, sa[0],
                                           sa[0],
-                                          bool(True), margin, bool(False), _face_feature(0, codea),
-                                          out_point, out_normal, out_depth, out_feature, start)
+                                          bool(True), margin, bool(False),
+                                          _face_feature(np.int64(0), codea), out_point,
+                                          out_normal, out_depth, out_feature, start)
         elif okb:
             t1 = any_perp(cb)
             t2 = vcross(cb, t1)
             cnt, dmax = face_manifold(np.int64(CYLINDER), pa, qa, sa, ccb, cb, t1, t2, sb[0], sb[0],
                                       bool(True),
-                                      margin, bool(True), _face_feature(1, codeb), out_point,
-                                      out_normal, out_depth, out_feature, start)
+                                      margin, bool(True), _face_feature(np.int64(1), codeb),
+                                      out_point, out_normal, out_depth, out_feature, start)
     tol = 1e-6 * (shape_scale(np.int64(CYLINDER), sa) + shape_scale(np.int64(CYLINDER), sb))
     return _add_single(cnt, dmax, depth0, n, xa, xb, tol, out_point, out_normal, out_depth,
                        out_feature, start)

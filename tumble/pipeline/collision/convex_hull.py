@@ -269,7 +269,7 @@ def epa_penetration(ta, pa, qa, sa, va, tb, pb, qb, sb, vb, tol):
     FN = np.empty((_EPA_MAXF, 3))
     FD = np.empty(_EPA_MAXF)
     alive = np.zeros(_EPA_MAXF, np.bool_)
-    nf = 0
+    nf = np.int64(0)
     # the four faces, oriented away from the opposite vertex
     for f in range(4):
         i = (f + 1) % 4
@@ -434,7 +434,7 @@ def _support_ids(gtype, quat, size, verts, u, tol, ids):
     ul = quat_rotate_inv(quat, u)
     nv = poly_count(gtype, verts)
     best = -math.inf
-    kmax = 0
+    kmax = np.int64(0)
     for k in range(nv):
         s = vdot(poly_local(gtype, size, verts, k), ul)
         if s > best:
@@ -658,7 +658,7 @@ def collide_plane_convex(pos_a, quat_a, pos_b, quat_b, verts, margin, out_point,
     if cnt == 0:
         return 0
     cand = np.empty((cnt, 7))
-    c = 0
+    c = np.int64(0)
     for k in range(nv):
         h = off + vdot(nl, (verts[k, 0], verts[k, 1], verts[k, 2]))
         if h < margin:
@@ -909,7 +909,7 @@ def _face_contacts(tr, pr, qr, sr, vr, kind, nref, cap_c, rpoly, nrp, ti, pi, qi
                     break
             res = b2 if nrp % 2 == 1 else b1
             cand = np.empty((max(ns, 1), 7))
-            m = 0
+            m = np.int64(0)
             for a in range(ns):
                 depth = -res[a, 2]
                 if depth <= -margin:
@@ -928,7 +928,7 @@ def _face_contacts(tr, pr, qr, sr, vr, kind, nref, cap_c, rpoly, nrp, ti, pi, qi
                 m += 1
         else:
             cand = np.empty((max(ni, 1), 7))
-            m = 0
+            m = np.int64(0)
             for a in range(ni):
                 x = inc[a, 0]
                 y = inc[a, 1]
@@ -951,7 +951,7 @@ def _face_contacts(tr, pr, qr, sr, vr, kind, nref, cap_c, rpoly, nrp, ti, pi, qi
             rim_u = (0.0, 1.0, 0.0)
         nc = num_candidates(ti)
         cand = np.empty((nc, 7))
-        m = 0
+        m = np.int64(0)
         for k in range(nc):
             valid, pw, f = incident_point(ti, pi, qi, si, k, nref, rim_a, rim_s, rim_v, rim_u)
             if not valid:

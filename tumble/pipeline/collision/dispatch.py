@@ -147,7 +147,7 @@ def _distance_ordered(ta, pa, qa, sa, tb, pb, qb, sb):
         c = quat_rotate_inv(qb, sub(pa, pb))
         u = quat_rotate_inv(qb, quat_rotate(qa, (0.0, 0.0, 1.0)))
         if tb == BOX:
-            t = segment_box_deepest(c, u, hl, sb)
+            t = segment_box_deepest(c, u, hl, sb, math.inf)
             sdf, g, q, _ = box_sdf(madd(c, u, t), sb)
         elif ta == SPHERE:
             t = 0.0

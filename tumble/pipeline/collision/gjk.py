@@ -15,6 +15,7 @@ Neither allocates: the simplices live in tuples.
 """
 import math
 
+import numpy as np
 from numba import njit
 
 from ._vec import add, madd, norm, norm2, normalize_or, scale, sub, vcross, vdot
@@ -199,11 +200,11 @@ def gjk_distance(ta, pa, qa, sa, tb, pb, qb, sb, va=None, vb=None):
     a0 = support_core(ta, pa, qa, sa, (-v[0], -v[1], -v[2]), va)
     b0 = support_core(tb, pb, qb, sb, v, vb)
     w = sub(a0, b0)
-    W = _set(W, 0, w)
-    PA = _set(PA, 0, a0)
-    PB = _set(PB, 0, b0)
+    W = _set(W, np.int64(0), w)
+    PA = _set(PA, np.int64(0), a0)
+    PB = _set(PB, np.int64(0), b0)
     L = (1.0, 0.0, 0.0, 0.0)
-    n = 1
+    n = np.int64(1)
     v = w
     sc = max(norm(sub(support_core(ta, pa, qa, sa, (1.0, 1.0, 1.0), va),
                       support_core(ta, pa, qa, sa, (-1.0, -1.0, -1.0), va))),
@@ -244,7 +245,7 @@ def gjk_distance(ta, pa, qa, sa, tb, pb, qb, sb, va=None, vb=None):
         L = Lnew
         v = vnew
         # keep only the vertices that support the closest point
-        m = 0
+        m = np.int64(0)
         W2 = (_Z3, _Z3, _Z3, _Z3)
         A2 = (_Z3, _Z3, _Z3, _Z3)
         B2 = (_Z3, _Z3, _Z3, _Z3)

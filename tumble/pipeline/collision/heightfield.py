@@ -398,7 +398,7 @@ def collide_hfield(H, nr, nc, hsize, pos_h, quat_h, tb, pos_b, quat_b, size_b, v
     cand = np.empty((nvp + (nround + 1) * ntri + 1, 11))
     prism = np.empty((6, 3))
     rb = core_radius(tb, sb)
-    m = 0
+    m = np.int64(0)
     # feature candidates
     if poly:
         for k in range(nvp):
@@ -457,7 +457,7 @@ def collide_hfield(H, nr, nc, hsize, pos_h, quat_h, tb, pos_b, quat_b, size_b, v
             if _dominated(cand, m, i, cand[i, 2], (cand[i, 8], cand[i, 9], cand[i, 10]), tol):
                 cand[i, 2] = -math.inf
     keep = np.empty((m, 11))
-    mk = 0
+    mk = np.int64(0)
     for i in range(m):
         if cand[i, 2] != -math.inf:
             for c in range(11):

@@ -145,8 +145,8 @@ def _plane_any(gtype, pos_a, quat_a, pos_b, quat_b, size_b, margin, out_point, o
                out_depth, out_feature, start):
     p, n, t1, t2 = _plane_frame(pos_a, q4(quat_a))
     cnt, _ = face_manifold(gtype, v3(pos_b), q4(quat_b), v3(size_b), p, n, t1, t2, _INF, _INF,
-                           False, margin, False, 0, out_point, out_normal, out_depth,
-                           out_feature, start)
+                           np.bool_(False), margin, np.bool_(False), np.int64(0), out_point,
+                           out_normal, out_depth, out_feature, start)
     return cnt
 
 
@@ -198,7 +198,7 @@ def collide_sphere_sphere(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, 
     depth, n, p = round_contact(v3(pos_a), v3(pos_b), size_a[0], size_b[0], (0.0, 0.0, 1.0))
     if depth <= -margin:
         return 0
-    write_contact(out_point, out_normal, out_depth, out_feature, start, p, n, depth, 0)
+    write_contact(out_point, out_normal, out_depth, out_feature, start, p, n, depth, np.int64(0))
     return 1
 
 
@@ -214,7 +214,7 @@ def collide_sphere_capsule(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin,
     depth, n, p = round_contact(c, q, size_a[0], size_b[0], any_perp(u))
     if depth <= -margin:
         return 0
-    write_contact(out_point, out_normal, out_depth, out_feature, start, p, n, depth, 0)
+    write_contact(out_point, out_normal, out_depth, out_feature, start, p, n, depth, np.int64(0))
     return 1
 
 
@@ -282,7 +282,8 @@ def collide_capsule_capsule(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin
                     cnt += 1
             if cnt > 0 and depth0 <= best + tol:
                 return cnt
-    write_contact(out_point, out_normal, out_depth, out_feature, start + cnt, p0, n0, depth0, 0)
+    write_contact(out_point, out_normal, out_depth, out_feature, start + cnt, p0, n0, depth0,
+                  np.int64(0))
     return cnt + 1
 
 
@@ -305,15 +306,20 @@ def collide_sphere_box(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, out
     n = (-gw[0], -gw[1], -gw[2])
     sa = madd(c, n, r)
     sb = local_to_world(pb, qb, q)
-    write_contact(out_point, out_normal, out_depth, out_feature, start, mid(sa, sb), n, depth, 0)
+    write_contact(out_point, out_normal, out_depth, out_feature, start, mid(sa, sb), n, depth,
+                  np.int64(0))
     return 1
 
 
 @noalloc
-def segment_box_deepest(c, u, hl, h):
+def segment_box_deepest(c, u, hl, h, beyond=_INF):
     """Parameter ``t`` in ``[-hl, hl]`` minimising the box signed distance of ``c + t u``
     (all in box-local coordinates). The signed distance to a convex set is convex, so
-    a golden-section search finds the minimum; both ends are checked as well."""
+    a golden-section search finds the minimum; both ends are checked as well.
+
+    beyond : (m) give up, returning NaN, once the segment is known to stay farther than
+        this from the box (the distance is 1-Lipschitz in ``t``, so the least value in
+        the bracket is at least the best sample minus the bracket's width)."""
     if hl <= 0.0:
         return 0.0
     gr = 0.6180339887498949
@@ -327,6 +333,8 @@ def segment_box_deepest(c, u, hl, h):
     for _ in range(100):
         if hi - lo <= stop:
             break
+        if min(f1, f2) - (hi - lo) > beyond:
+            return math.nan
         if f1 <= f2:
             hi = x2
             x2 = x1
@@ -383,7 +391,10 @@ def collide_capsule_box(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, ou
     hl = size_a[1]
     c = quat_rotate_inv(qb, sub(v3(pos_a), pb))
     u = quat_rotate_inv(qb, quat_rotate(q4(quat_a), (0.0, 0.0, 1.0)))
-    t = segment_box_deepest(c, u, hl, h)
+    # a capsule surely farther than the margin from the box ends the search early
+    t = segment_box_deepest(c, u, hl, h, r + margin)
+    if t != t:
+        return 0
     p = madd(c, u, t)
     sdf, g, q, nout = box_sdf(p, h)
     depth = r - sdf
@@ -453,7 +464,8 @@ def collide_capsule_box(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, ou
     pw = local_to_world(pb, qb, p)
     sa = madd(pw, gw, -r)
     sb = local_to_world(pb, qb, q)
-    write_contact(out_point, out_normal, out_depth, out_feature, start, mid(sa, sb), n, depth, 0)
+    write_contact(out_point, out_normal, out_depth, out_feature, start, mid(sa, sb), n, depth,
+                  np.int64(0))
     return 1
 
 
@@ -474,5 +486,6 @@ def collide_sphere_cylinder(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin
     n = (-gw[0], -gw[1], -gw[2])
     sa = madd(c, n, r)
     sb = local_to_world(pb, qb, q)
-    write_contact(out_point, out_normal, out_depth, out_feature, start, mid(sa, sb), n, depth, 0)
+    write_contact(out_point, out_normal, out_depth, out_feature, start, mid(sa, sb), n, depth,
+                  np.int64(0))
     return 1

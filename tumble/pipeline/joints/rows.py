@@ -11,6 +11,7 @@ ERP/CFM: a row with error C asks for the velocity ``-ERP C / h`` and is softened
 ``CFM`` (ODE's units: m/N or rad/(N m) per second). A spring k and damper c acting on
 the error at step h are reproduced by ``ERP = h k / (h k + c)``, ``CFM = 1 / (h k + c)``.
 """
+import numpy as np
 from numba import njit
 
 from ..._jit import noalloc
@@ -241,15 +242,15 @@ def _swing_twist_row(m, rows, r, j, d, a, b, frame_a, frame_b, vel, angvel, h, e
     if d == 0 and m.joint_twist[j, 0] <= m.joint_twist[j, 1]:
         tau, e, ok = ball.twist_terms(frame_a, frame_b)
         if ok:
-            qd = _dof_velocity(e, False, a, b, vel, angvel, r_a, r_b)
-            _bound_row(rows, r, a, b, e, False, tau - m.joint_twist[j, 0],
+            qd = _dof_velocity(e, np.bool_(False), a, b, vel, angvel, r_a, r_b)
+            _bound_row(rows, r, a, b, e, np.bool_(False), tau - m.joint_twist[j, 0],
                        m.joint_twist[j, 1] - tau, qd, h, erp_h, cfm, r_a, r_b)
             return
     elif d == 1 and m.joint_cone[j, 0] > 0.0:
         margin, e, ok = ball.swing_terms(frame_a, frame_b, m.joint_cone[j, 0], m.joint_cone[j, 1])
         if ok:
-            qd = _dof_velocity(e, False, a, b, vel, angvel, r_a, r_b)
-            _bound_row(rows, r, a, b, e, False, INF, margin, qd, h, erp_h, cfm, r_a, r_b)
+            qd = _dof_velocity(e, np.bool_(False), a, b, vel, angvel, r_a, r_b)
+            _bound_row(rows, r, a, b, e, np.bool_(False), INF, margin, qd, h, erp_h, cfm, r_a, r_b)
             return
     clear_row(rows, r, a, b)
 

@@ -148,7 +148,7 @@ def solve_direct(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, tolera
     world frame; vel, angvel (nbody, 3) updated in place; impulse (nrow,) N s out;
     cache : ``tree.make_plan_cache``, the rows' tree plan kept from call to call."""
     return solve_active_set_cached(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse,
-                                   tolerance, True, cache)
+                                   tolerance, np.bool_(True), cache)
 
 
 @njit(cache=True)
@@ -204,7 +204,7 @@ def _active_set(rows, idx, n, inv_mass, inv_inertia, vel, angvel, impulse, toler
     converged = False
     for it in range(4 * n + 20):
         iters = it + 1
-        nf = 0
+        nf = np.int64(0)
         for i in range(n):
             if state[i] == 0:
                 free[nf] = i
@@ -213,7 +213,7 @@ def _active_set(rows, idx, n, inv_mass, inv_inertia, vel, angvel, impulse, toler
                 p[i] = rows.lo[idx[i]] if state[i] < 0 else rows.hi[idx[i]]
         if tree:
             # free rows: (A_FF) p_F = b_F - A_FC p_C, with A_FC p_C = J_F (M^-1 J_C^T p_C)
-            accumulate_response(rows, idx, n, dv, p, state, True, acc)
+            accumulate_response(rows, idx, n, dv, p, state, np.bool_(True), acc)
             for i in range(n):
                 plan.use[i] = 1 if state[i] == 0 else 0
                 rhs[i] = b[i] - row_dot(rows, idx[i], acc) if state[i] == 0 else 0.0
@@ -254,7 +254,7 @@ def _active_set(rows, idx, n, inv_mass, inv_inertia, vel, angvel, impulse, toler
             converged = True
             break
         if tree:
-            accumulate_response(rows, idx, n, dv, p, state, False, acc)
+            accumulate_response(rows, idx, n, dv, p, state, np.bool_(False), acc)
         worst, worst_i = tolerance, -1
         for i in range(n):
             if state[i] == 0:

@@ -63,7 +63,7 @@ def solve_mlcp(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, max_pivo
     the caller's fallback).
     """
     return mixed_lcp_cached(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse,
-                            max_pivots, True, cache)
+                            max_pivots, np.bool_(True), cache)
 
 
 @njit(cache=True)
@@ -166,7 +166,7 @@ def _mlcp_tree(rows, nrow, idx, where, n, kind, bil, nb, oth, nn, bsel, plan, in
     sub = np.empty(nn, np.int64)
     guessed = _guess_states(rows, idx, where, kind, oth, nn, impulse, state)
     if guessed:
-        ns = 0
+        ns = np.int64(0)
         for a in range(nn):
             if state[a] != _ZERO:
                 sub[ns] = a
@@ -196,7 +196,7 @@ def _complement(rows, idx, oth, sub, ns, b, plan, nb, inv_mass, inv_inertia, u0)
     slot = np.full(nbody, -1, np.int64)
     alone = np.zeros(nbody, np.bool_)
     cb = np.empty(nbody, np.int64)
-    nc = 0
+    nc = np.int64(0)
     for t in range(ns):
         r = idx[oth[sub[t]]]
         for side in range(2):
@@ -232,7 +232,7 @@ def _respond(rows, idx, oth, sub, ns, p, plan, nb, slot, alone, dva, vel, angvel
     for body in range(nbody):
         for k in range(6):
             vn[body, k] = 0.0
-    _push(rows, idx, oth, sub, ns, p, alone, False, rows.J, vn)   # J^T p on the tree
+    _push(rows, idx, oth, sub, ns, p, alone, np.bool_(False), rows.J, vn)   # J^T p, the tree
     for u in range(nb):
         y1[u] = 0.0
     tree_solve(plan, nbody, vn, y1, vn, y1)
@@ -240,7 +240,7 @@ def _respond(rows, idx, oth, sub, ns, p, plan, nb, slot, alone, dva, vel, angvel
         for k in range(3):
             vn[body, k] += vel[body, k] + u0[body, k]
             vn[body, 3 + k] += angvel[body, k] + u0[body, 3 + k]
-    _push(rows, idx, oth, sub, ns, p, alone, True, dva, vn)       # M^-1 J^T p on the others
+    _push(rows, idx, oth, sub, ns, p, alone, np.bool_(True), dva, vn)   # M^-1 J^T p, the others
 
 
 @noalloc
@@ -330,7 +330,7 @@ def _solve_held(rows, idx, oth, sub, ns, state, S, cvec, p, free, mat, fac, rhs,
     zero rows nothing, and the held rows solve ``S_HH p_H = c_H - S_HB p_B`` (Cholesky).
     Returns (ok, largest held impulse); ok is False for dependent held rows.
     free (ns,) int64, mat, fac (ns, ns), rhs, x (ns,) are scratch."""
-    nf = 0
+    nf = np.int64(0)
     for t in range(ns):
         a = sub[t]
         r = idx[oth[a]]
@@ -487,9 +487,9 @@ def _lcp_on_schur(rows, idx, where, kind, oth, nn, S, cvec, impulse, max_pivots,
                                np.empty((nn, nn)), np.empty(nn), np.empty(nn), np.empty(nn)):
             return LEMKE_SOLVED
         return _pyramid_lcp(rows, idx, where, kind, oth, nn, S, cvec, impulse, max_pivots,
-                            False, p_n)
-    return _pyramid_lcp(rows, idx, where, kind, oth, nn, S, cvec, impulse, max_pivots, True,
-                        p_n)
+                            np.bool_(False), p_n)
+    return _pyramid_lcp(rows, idx, where, kind, oth, nn, S, cvec, impulse, max_pivots,
+                        np.bool_(True), p_n)
 
 
 # states of a row in a guessed active set
@@ -625,7 +625,7 @@ def _pyramid_lcp(rows, idx, where, kind, oth, nn, S, cvec, impulse, max_pivots, 
     var_row = np.empty(3 * nn, np.int64)       # position in oth
     var_sign = np.zeros(3 * nn)                # +1 / -1 impulse sign; 0 for slacks
     group_of = np.full(nn, -1, np.int64)       # slack variable of each friction/box row
-    nz = 0
+    nz = np.int64(0)
     for i in range(nn):
         if kind[oth[i]] == KIND_UNILATERAL:
             var_row[nz], var_sign[nz] = i, 1.0

@@ -232,7 +232,8 @@ def _chol_block(a, off, d, dinv, doff):
 @njit(cache=True, inline="always")
 def _eliminate_block(fac, lo, d, dinv, di, wm, wo, dp, op):
     """``W = L^-1 K`` in place (``wm[wo:]``, d x dp, K on entry) with the factor at
-    ``fac[lo:]``, then ``P_parent += W^T W`` (the dp x dp block at ``fac[op:]``)."""
+    ``fac[lo:]``, then ``P_parent += W^T W`` (the dp x dp block at ``fac[op:]``; only its
+    lower triangle, the part the Cholesky reads)."""
     for i in range(d):
         inv = dinv[di + i]
         for k in range(i):
@@ -244,7 +245,7 @@ def _eliminate_block(fac, lo, d, dinv, di, wm, wo, dp, op):
     for i in range(d):
         for a in range(dp):
             x = wm[wo + i * dp + a]
-            for c in range(dp):
+            for c in range(a + 1):
                 fac[op + a * dp + c] += x * wm[wo + i * dp + c]
 
 
