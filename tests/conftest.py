@@ -1,19 +1,52 @@
-"""Test-session set-up shared by every test directory."""
+"""Test-session set-up shared by every test directory: how the two workers of the README's
+``pytest -n 2 --dist loadgroup --no-loadscope-reorder`` share the work.
+
+With Numba's cache cold, the first test that steps a world compiles the whole step (about
+five minutes on a 2-core machine). One worker starts on that; the other first runs the test
+files that never step a world, and by the time it needs the step, much of it is in the
+cache the first worker writes. Without pytest-xdist the marks and the order change nothing
+but the order.
+"""
 import pytest
 
-# Files whose first tests compile the same large kernel (the batched, threaded step):
-# run by one worker, the second file finds that kernel in Numba's cache instead of
-# compiling it at the same time in another process.
-_SHARED_WORKER = {
+# Runs first: many tests, the first of which compiles the serial step, then the batched one.
+FIRST = "tests/test_world.py"
+
+# Files whose tests compile the same large kernel (the batched, threaded step) run on one
+# worker, so that the second finds it in the cache instead of compiling it alongside.
+SHARED_WORKER = {
     "tests/test_world.py": "batched-step",
     "tests/pipeline/test_parallel.py": "batched-step",
 }
 
+# Files that never step a world (kernels, parsers, the viewer on recordings), longest first.
+STEP_FREE = [
+    "tests/pipeline/collision/test_collision_properties.py",
+    "tests/pipeline/collision/test_collision_pairs.py",
+    "tests/pipeline/collision/test_convex_heightfield.py",
+    "tests/viewer/test_browser.py",
+    "tests/io/test_bvh.py",
+    "tests/pipeline/collision/test_collision_queries.py",
+    "tests/model/test_builder.py",
+    "tests/model/test_meshes.py",
+    "tests/model/test_mass.py",
+    "tests/character/test_skeleton.py",
+    "tests/math/test_quat_np.py",
+    "tests/bench/test_bench_ode.py",
+    "tests/test_cache.py",
+    "tests/viewer/test_examples.py",
+]
+
 
 def pytest_collection_modifyitems(config, items):
-    """Under ``pytest -n 2 --dist loadgroup`` (the README's command) each test file runs on
-    one worker, so the kernels a file compiles compile once; the files of
-    ``_SHARED_WORKER`` share one. Without pytest-xdist the marks do nothing."""
+    """One xdist group per test file (its kernels compile once), ``SHARED_WORKER`` files in
+    one group; files ordered ``FIRST``, then ``STEP_FREE``, then the rest as collected."""
+    by_file = {}
     for item in items:
         path = item.nodeid.split("::")[0]
-        item.add_marker(pytest.mark.xdist_group(_SHARED_WORKER.get(path, path)))
+        item.add_marker(pytest.mark.xdist_group(SHARED_WORKER.get(path, path)))
+        by_file.setdefault(path, []).append(item)
+    rank = {path: i + 1 for i, path in enumerate(STEP_FREE)}
+    rank[FIRST] = 0
+    files = sorted(by_file, key=lambda path: rank.get(path, len(rank) + 1))   # stable
+    items[:] = [item for path in files for item in by_file[path]]
