@@ -312,13 +312,13 @@ def collide_sphere_box(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, out
 
 
 @noalloc
-def segment_box_deepest(c, u, hl, h, beyond=_INF):
+def segment_box_deepest(c, u, hl, h, beyond):
     """Parameter ``t`` in ``[-hl, hl]`` minimising the box signed distance of ``c + t u``
     (all in box-local coordinates). The signed distance to a convex set is convex, so
     a golden-section search finds the minimum; both ends are checked as well.
 
     beyond : (m) give up, returning NaN, once the segment is known to stay farther than
-        this from the box (the distance is 1-Lipschitz in ``t``, so the least value in
+        this from the box (``math.inf``: never) (the distance is 1-Lipschitz in ``t``, so the least value in
         the bracket is at least the best sample minus the bracket's width)."""
     if hl <= 0.0:
         return 0.0

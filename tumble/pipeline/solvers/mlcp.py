@@ -299,7 +299,7 @@ def _guess_on_tree(rows, idx, where, kind, oth, nn, sub, ns, state, b, plan, nb,
         cmax = max(cmax, abs(cvec[t]))
     for a in range(nn):
         cmax = max(cmax, abs(b[oth[a]]))
-    tol_w, tol_p = _slack(cmax, smax, pmax)
+    tol_w, tol_p = _slack(_GUESS_TOL, cmax, smax, pmax)
     if not _holding_ok(rows, idx, where, kind, oth, nn, state, p, tol_p):
         return False
     _respond(rows, idx, oth, sub, ns, p, plan, nb, slot, alone, dva, vel, angvel, u0, vn, y1)
@@ -364,10 +364,10 @@ def _solve_held(rows, idx, oth, sub, ns, state, S, cvec, p, free, mat, fac, rhs,
 
 
 @njit(cache=True, inline="always")
-def _slack(cmax, smax, pmax):
+def _slack(tol, cmax, smax, pmax):
     """(velocity, impulse) slack of the complementarity checks for a problem whose
-    largest ``|c|``, diagonal of ``S`` and impulse are these: ``_GUESS_TOL`` of its scale."""
-    tol_w = _GUESS_TOL * (cmax + smax * pmax)
+    largest ``|c|``, diagonal of ``S`` and impulse are these: ``tol`` of its scale."""
+    tol_w = tol * (cmax + smax * pmax)
     return tol_w, tol_w / smax
 
 
@@ -565,7 +565,7 @@ def _guessed_active_set(rows, idx, where, kind, oth, nn, S, cvec, state, p, ever
                 if p[c] != 0.0:
                     s += S[a, c] * p[c]
             w[a] = s
-        tol_w, tol_p = _slack(cmax, smax, pmax)
+        tol_w, tol_p = _slack(_GUESS_TOL, cmax, smax, pmax)
         changed = False
         for a in range(nn):
             i = oth[a]
@@ -720,8 +720,7 @@ def _complementary(rows, idx, where, kind, oth, nn, S, cvec, p, tol, w):
         for c in range(nn):
             acc += S[a, c] * p[c]
         w[a] = acc
-    tol_w = tol * (cmax + smax * pmax)
-    tol_p = tol_w / smax
+    tol_w, tol_p = _slack(tol, cmax, smax, pmax)
     for a in range(nn):
         i = oth[a]
         r = idx[i]
