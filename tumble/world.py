@@ -50,19 +50,24 @@ def _type_key(x):
 _ENTRY_POINTS = {}
 
 
-def _entry_point(dispatcher, args):
+def _entry_point(dispatcher, args, compiled_only=False):
     """The compiled entry point of Numba ``dispatcher`` for arguments typed as ``args``
     (the dispatcher itself if this Numba does not expose it): calling it skips the
     dispatcher's type matching, which costs more than a small world's step. Matching
     the types once costs 2 ms, so the entry point is remembered for every world whose
-    arguments have the same types."""
+    arguments have the same types. With ``compiled_only``, None when nothing is compiled
+    for these types yet (the caller then goes through the dispatcher, which compiles)."""
     key = (dispatcher, _type_key(args))
     entry = _ENTRY_POINTS.get(key)
     if entry is None:
         try:
             sig = tuple(dispatcher.typeof_pyval(a) for a in args)
             entry = dispatcher.overloads[sig].entry_point
-        except (AttributeError, KeyError, TypeError):
+        except KeyError:
+            if compiled_only:
+                return None
+            entry = dispatcher
+        except (AttributeError, TypeError):
             entry = dispatcher
         _ENTRY_POINTS[key] = entry
     return entry
@@ -322,6 +327,26 @@ class World:
         self._work = None          # scratch of the serial step, kept between calls
         self._entry = None         # step_checked's compiled entry point, once called
         self.reset()
+        self._prepare_step()
+
+    def _prepare_step(self):
+        """The serial step's scratch memory and compiled entry point, made now when an
+        earlier world of the process has compiled the step for the same argument types:
+        the first ``step`` call then costs what the others do instead of a millisecond
+        more. The first world of a process compiles the step on its first ``step``."""
+        if self.parallel or not pipeline_step.step_checked.overloads:
+            return
+        options = self._options()
+        args = (self.model.arrays, self._state, self._contacts, options)
+        make = _entry_point(pipeline_step.make_step_work, args, compiled_only=True)
+        if make is None:
+            return
+        work = make(*args)
+        entry = _entry_point(pipeline_step.step_checked,
+                             (self.model.arrays, self._state, self._contacts, self._pairs, 1,
+                              options, self._ball_joints, work), compiled_only=True)
+        if entry is not None:
+            self._work, self._entry = work, entry
 
     @property
     def dt(self):
@@ -629,8 +654,9 @@ class World:
         s = self._state
         while True:
             if self._work is None:
-                self._work = pipeline_step.make_step_work(
-                    self.model.arrays, s, self._contacts, options)
+                margs = (self.model.arrays, s, self._contacts, options)
+                make = _entry_point(pipeline_step.make_step_work, margs, compiled_only=True)
+                self._work = (make or pipeline_step.make_step_work)(*margs)
             args = (self.model.arrays, s, self._contacts, self._pairs, n, options,
                     self._ball_joints, self._work)
             if self._entry is None:

@@ -20,6 +20,7 @@ Candidate numbering (used as feature ids, stable while the contact persists):
 """
 import math
 
+import numpy as np
 from numba import njit
 
 from ..._jit import noalloc
@@ -150,35 +151,46 @@ def face_manifold(gtype, pos, quat, size, face_pt, n, t1, t2, e1, e2, is_disc, m
         rim_v = (1.0, 0.0, 0.0)
         rim_u = (0.0, 1.0, 0.0)
     ncand = num_candidates(gtype)
-    mask = 0
-    count = 0
-    deepest = -math.inf
     sgn = -1.0 if flip else 1.0
     normal = (sgn * n[0], sgn * n[1], sgn * n[2])
-    for _ in range(4):
-        best = -1
-        best_d = -math.inf
-        best_p = (0.0, 0.0, 0.0)
-        best_f = 0
-        for k in range(ncand):
-            if mask & (1 << k):
-                continue
-            ok, depth, p, f = _candidate_depth(gtype, pos, quat, size, k, face_pt, n, t1, t2,
-                                               e1, e2, is_disc, rim_a, rim_s, rim_v, rim_u)
-            if not ok or depth <= -margin:
-                continue
-            if depth > best_d + 1e-12:          # near ties: lower index, stable
-                best = k
-                best_d = depth
-                best_p = p
-                best_f = f
-        if best < 0:
+    # one pass keeping the four deepest, deepest first; a later candidate goes ahead of
+    # a kept one only if deeper by more than 1e-12, so near ties keep the lower index
+    d0 = d1 = d2 = d3 = -math.inf
+    p0 = p1 = p2 = p3 = (0.0, 0.0, 0.0)
+    f0 = f1 = f2 = f3 = np.int64(0)
+    for k in range(ncand):
+        ok, depth, p, f = _candidate_depth(gtype, pos, quat, size, k, face_pt, n, t1, t2,
+                                           e1, e2, is_disc, rim_a, rim_s, rim_v, rim_u)
+        if not ok or depth <= -margin or depth <= d3 + 1e-12:
+            continue
+        if depth > d0 + 1e-12:
+            d0, d1, d2, d3 = depth, d0, d1, d2
+            p0, p1, p2, p3 = p, p0, p1, p2
+            f0, f1, f2, f3 = f, f0, f1, f2
+        elif depth > d1 + 1e-12:
+            d1, d2, d3 = depth, d1, d2
+            p1, p2, p3 = p, p1, p2
+            f1, f2, f3 = f, f1, f2
+        elif depth > d2 + 1e-12:
+            d2, d3 = depth, d2
+            p2, p3 = p, p2
+            f2, f3 = f, f2
+        else:
+            d3, p3, f3 = depth, p, f
+    count = 0
+    for slot in range(4):
+        if slot == 0:
+            d, p, f = d0, p0, f0
+        elif slot == 1:
+            d, p, f = d1, p1, f1
+        elif slot == 2:
+            d, p, f = d2, p2, f2
+        else:
+            d, p, f = d3, p3, f3
+        if d == -math.inf:
             break
-        mask |= 1 << best
-        if count == 0:
-            deepest = best_d
-        point = madd(best_p, n, 0.5 * best_d)
-        write_contact(out_point, out_normal, out_depth, out_feature, start + count, point,
-                      normal, best_d, feature_base + best_f)
+        write_contact(out_point, out_normal, out_depth, out_feature, start + count,
+                      madd(p, n, 0.5 * d), normal, d, feature_base + f)
         count += 1
+    deepest = d0
     return count, deepest

@@ -312,50 +312,129 @@ def collide_sphere_box(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, out
 
 
 @noalloc
+def _outside_sq(c, u, h, t):
+    """Squared distance from ``c + t u`` to the box (0 inside)."""
+    acc = 0.0
+    for k in range(3):
+        e = abs(c[k] + t * u[k]) - h[k]
+        if e > 0.0:
+            acc += e * e
+    return acc
+
+
+@noalloc
+def _inside_sdf(c, u, h, t):
+    """``max_k |c_k + t u_k| - h_k``: the signed distance wherever it is <= 0 (inside)."""
+    return max(abs(c[0] + t * u[0]) - h[0], abs(c[1] + t * u[1]) - h[1],
+               abs(c[2] + t * u[2]) - h[2])
+
+
+@noalloc
+def _slab_crossing(c, u, h, i):
+    """Where the line ``c + t u`` crosses face plane ``i`` (axis ``i // 2``, side
+    ``i % 2``): ``t``, or NaN when the line is parallel to it."""
+    k = i // 2
+    if abs(u[k]) < 1e-300:
+        return math.nan
+    side = h[k] if i % 2 else -h[k]
+    return (side - c[k]) / u[k]
+
+
+@noalloc
 def segment_box_deepest(c, u, hl, h, beyond):
     """Parameter ``t`` in ``[-hl, hl]`` minimising the box signed distance of ``c + t u``
-    (all in box-local coordinates). The signed distance to a convex set is convex, so
-    a golden-section search finds the minimum; both ends are checked as well.
+    (all in box-local coordinates), found exactly.
 
-    beyond : (m) give up, returning NaN, once the segment is known to stay farther than
-        this from the box (``math.inf``: never) (the distance is 1-Lipschitz in ``t``, so the least value in
-        the bracket is at least the best sample minus the bracket's width)."""
+    Outside the box the squared distance is a convex quadratic between the crossings of
+    the six face planes, so its least value is at a piece's stationary point or at a
+    crossing. If the segment reaches the box, the distance inside is the largest of
+    ``|c_k + t u_k| - h_k``, convex and piecewise linear: least at an end, where one of
+    them turns (``c_k + t u_k = 0``) or where two of them meet. Ties go to the ends.
+
+    beyond : (m) return NaN when the segment stays farther than this from the box
+        (``math.inf``: never)."""
     if hl <= 0.0:
         return 0.0
-    gr = 0.6180339887498949
-    lo = -hl
-    hi = hl
-    x1 = hi - gr * (hi - lo)
-    x2 = lo + gr * (hi - lo)
-    f1 = box_sdf(madd(c, u, x1), h)[0]
-    f2 = box_sdf(madd(c, u, x2), h)[0]
-    stop = 1e-13 * hl
-    for _ in range(100):
-        if hi - lo <= stop:
-            break
-        if min(f1, f2) - (hi - lo) > beyond:
-            return math.nan
-        if f1 <= f2:
-            hi = x2
-            x2 = x1
-            f2 = f1
-            x1 = hi - gr * (hi - lo)
-            f1 = box_sdf(madd(c, u, x1), h)[0]
-        else:
-            lo = x1
-            x1 = x2
-            f1 = f2
-            x2 = lo + gr * (hi - lo)
-            f2 = box_sdf(madd(c, u, x2), h)[0]
-    t = 0.5 * (lo + hi)
-    ft = box_sdf(madd(c, u, t), h)[0]
-    fa = box_sdf(madd(c, u, -hl), h)[0]
-    fb = box_sdf(madd(c, u, hl), h)[0]
-    if fa <= ft and fa <= fb:
-        return -hl
-    if fb < ft:
-        return hl
-    return t
+    best_t = -hl
+    best = _outside_sq(c, u, h, -hl)
+    d_hi = _outside_sq(c, u, h, hl)
+    if d_hi < best:
+        best_t, best = hl, d_hi
+    # each piece runs from its start (the segment's end or a crossing) to the next crossing
+    for i in range(-1, 6):
+        lo = -hl if i < 0 else _slab_crossing(c, u, h, i)
+        if not (lo >= -hl and lo < hl):
+            continue
+        hi = hl
+        for q in range(6):
+            tq = _slab_crossing(c, u, h, q)
+            if tq > lo and tq < hi:
+                hi = tq
+        mid = 0.5 * (lo + hi)
+        num = 0.0
+        den = 0.0
+        for k in range(3):
+            x = c[k] + mid * u[k]
+            if x > h[k]:
+                num += u[k] * (c[k] - h[k])
+                den += u[k] * u[k]
+            elif x < -h[k]:
+                num += u[k] * (c[k] + h[k])
+                den += u[k] * u[k]
+        t = min(max(-num / den, lo), hi) if den > 0.0 else mid
+        dt = _outside_sq(c, u, h, t)
+        if dt < best:
+            best_t, best = t, dt
+    if best > 0.0:
+        return math.nan if math.sqrt(best) > beyond else best_t
+    # the segment reaches the box: the least of the piecewise linear inside distance
+    best_t = -hl
+    best = _inside_sdf(c, u, h, -hl)
+    f_hi = _inside_sdf(c, u, h, hl)
+    if f_hi < best:
+        best_t, best = hl, f_hi
+    for a in range(3):
+        if abs(u[a]) > 1e-300:
+            t = -c[a] / u[a]
+            if -hl < t < hl:
+                f = _inside_sdf(c, u, h, t)
+                if f < best:
+                    best_t, best = t, f
+        for b in range(a + 1, 3):
+            for sa in (-1.0, 1.0):
+                for sb in (-1.0, 1.0):
+                    # sa x_a - h_a = sb x_b - h_b
+                    den = sa * u[a] - sb * u[b]
+                    if abs(den) < 1e-300:
+                        continue
+                    t = (h[a] - h[b] - sa * c[a] + sb * c[b]) / den
+                    if -hl < t < hl:
+                        f = _inside_sdf(c, u, h, t)
+                        if f < best:
+                            best_t, best = t, f
+    return best_t
+
+
+@noalloc
+def _segment_box_separated(c, u, hl, h, gap):
+    """Whether the segment ``c + t u``, ``|t| <= hl`` (box-local, ``u`` a unit vector) is
+    farther than ``gap`` from the box of half extents ``h`` along one of the separating
+    axes of a segment and a box: the box's three face normals and the segment's
+    direction crossed with each of them. A gap along an axis bounds the distance from
+    below, so True means surely apart; False decides nothing."""
+    for k in range(3):
+        if abs(c[k]) - abs(u[k]) * hl - h[k] > gap:
+            return True
+    for k in range(3):
+        ax = vcross(u, (1.0 if k == 0 else 0.0, 1.0 if k == 1 else 0.0, 1.0 if k == 2 else 0.0))
+        ln = norm(ax)
+        if ln < 1e-9:                    # the segment is parallel to e_k: a face axis
+            continue
+        # the segment projects to one point on an axis normal to it
+        reach = abs(ax[0]) * h[0] + abs(ax[1]) * h[1] + abs(ax[2]) * h[2]
+        if abs(vdot(ax, c)) - reach > gap * ln:
+            return True
+    return False
 
 
 @noalloc
@@ -391,6 +470,8 @@ def collide_capsule_box(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, ou
     hl = size_a[1]
     c = quat_rotate_inv(qb, sub(v3(pos_a), pb))
     u = quat_rotate_inv(qb, quat_rotate(q4(quat_a), (0.0, 0.0, 1.0)))
+    if _segment_box_separated(c, u, hl, h, r + margin):
+        return 0
     # a capsule surely farther than the margin from the box ends the search early
     t = segment_box_deepest(c, u, hl, h, r + margin)
     if t != t:

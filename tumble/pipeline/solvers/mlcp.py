@@ -37,8 +37,9 @@ from ..joints.common import INF
 from .common import active_rows, apply_impulses, minv_jt, row_velocity
 from .direct import assemble, cholesky_apply, cholesky_factor, row_dot
 from .lemke import LEMKE_INACCURATE, LEMKE_SOLVED, VERIFY_TOL as _VERIFY_TOL, lemke, lemke_warm
-from .tree import (cached_tree_plan, make_plan_cache, tree_body_inverse, tree_factor,
-                   tree_solve)
+from .tree import (cached_tree_plan, make_plan_cache, tree_add_columns, tree_backward,
+                   tree_body_inverse, tree_column_dot, tree_factor, tree_forward, tree_load,
+                   tree_row_columns, tree_solve, tree_unload)
 
 KIND_BILATERAL, KIND_UNILATERAL, KIND_FRICTION, KIND_BOX = 0, 1, 2, 3
 _BIG = 0.5 * INF
@@ -156,25 +157,24 @@ def _mlcp_tree(rows, nrow, idx, where, n, kind, bil, nb, oth, nn, bsel, plan, in
     g = np.empty(nb)
     for u in range(nb):
         g[u] = b[bil[u]]
-    u0 = np.zeros((nbody, 6))
-    y0 = np.empty(nb)
-    tree_solve(plan, nbody, u0, g, u0, y0)       # f = u0 = 0 on entry
     state = np.zeros(nn, np.int64)
     p_n = np.zeros(nn)
     vn = np.empty((nbody, 6))
-    y1 = np.empty(nb)
+    y = np.empty(nb)
     sub = np.empty(nn, np.int64)
-    guessed = _guess_states(rows, idx, where, kind, oth, nn, impulse, state)
-    if guessed:
+    if _guess_states(rows, idx, where, kind, oth, nn, impulse, state):
         ns = np.int64(0)
         for a in range(nn):
             if state[a] != _ZERO:
                 sub[ns] = a
                 ns += 1
-        if _guess_on_tree(rows, idx, where, kind, oth, nn, sub, ns, state, b, plan, nb,
-                          inv_mass, inv_inertia, vel, angvel, u0, p_n, vn, y1):
-            _finish(rows, nrow, idx, oth, nn, bsel, nb, y0, y1, p_n, vn, vel, angvel, impulse)
+        if _guess_on_tree(rows, idx, where, kind, oth, nn, sub, ns, state, b, g, plan,
+                          inv_mass, inv_inertia, vel, angvel, p_n, vn, y):
+            _finish(rows, nrow, idx, oth, nn, bsel, nb, y, p_n, vn, vel, angvel, impulse)
             return LEMKE_SOLVED
+    u0 = np.zeros((nbody, 6))
+    y0 = np.empty(nb)
+    tree_solve(plan, nbody, u0, g, u0, y0)       # f = u0 = 0 on entry
     for a in range(nn):
         sub[a] = a
     S, cvec, slot, alone, dva = _complement(rows, idx, oth, sub, nn, b, plan, nb, inv_mass,
@@ -182,8 +182,10 @@ def _mlcp_tree(rows, nrow, idx, where, n, kind, bil, nb, oth, nn, bsel, plan, in
     status = _lcp_on_schur(rows, idx, where, kind, oth, nn, S, cvec, impulse, max_pivots, p_n)
     if status != LEMKE_SOLVED:
         return status
-    _respond(rows, idx, oth, sub, nn, p_n, plan, nb, slot, alone, dva, vel, angvel, u0, vn, y1)
-    _finish(rows, nrow, idx, oth, nn, bsel, nb, y0, y1, p_n, vn, vel, angvel, impulse)
+    _respond(rows, idx, oth, sub, nn, p_n, plan, nb, slot, alone, dva, vel, angvel, u0, vn, y)
+    for u in range(nb):
+        y[u] += y0[u]
+    _finish(rows, nrow, idx, oth, nn, bsel, nb, y, p_n, vn, vel, angvel, impulse)
     return LEMKE_SOLVED
 
 
@@ -263,8 +265,9 @@ def _push(rows, idx, oth, sub, ns, p, alone, on_alone, per_row, out):
 
 
 @noalloc
-def _finish(rows, nrow, idx, oth, nn, bsel, nb, y0, y1, p_n, vn, vel, angvel, impulse):
-    """The new velocities ``vn`` into ``vel``, ``angvel``; every row's impulse."""
+def _finish(rows, nrow, idx, oth, nn, bsel, nb, y, p_n, vn, vel, angvel, impulse):
+    """The new velocities ``vn`` into ``vel``, ``angvel``; every row's impulse (the
+    bilateral rows' are ``-y``)."""
     for body in range(vel.shape[0]):
         for k in range(3):
             vel[body, k] = vn[body, k]
@@ -272,22 +275,67 @@ def _finish(rows, nrow, idx, oth, nn, bsel, nb, y0, y1, p_n, vn, vel, angvel, im
     for r in range(nrow):
         impulse[r] = 0.0
     for u in range(nb):
-        impulse[bsel[u]] = -(y0[u] + y1[u])
+        impulse[bsel[u]] = -y[u]
     for c in range(nn):
         impulse[idx[oth[c]]] = p_n[c]
 
 
 @njit(cache=True)
-def _guess_on_tree(rows, idx, where, kind, oth, nn, sub, ns, state, b, plan, nb, inv_mass,
-                   inv_inertia, vel, angvel, u0, p, vn, y1):
+def _guess_on_tree(rows, idx, where, kind, oth, nn, sub, ns, state, b, g, plan, inv_mass,
+                   inv_inertia, vel, angvel, p, vn, y):
     """Last step's contact state (``state``, ``_guess_states``) solved with ``S`` of the
-    rows it holds or fixes alone (``oth[sub[:ns]]``), the velocities that follow from
-    both tree solves, and every other row checked against them: ``w = J v_new - rhs``
-    must not pull on a zero normal or limit, nor slip a zero friction row of a holding
-    contact. True when ``p`` (nn,), ``vn`` and ``y1`` hold the mixed LCP's solution;
-    False leaves the full complement to decide."""
-    S, cvec, slot, alone, dva = _complement(rows, idx, oth, sub, ns, b, plan, nb, inv_mass,
-                                            inv_inertia, u0)
+    rows it holds or fixes alone (``oth[sub[:ns]]``), and every other row checked against
+    the velocities that follow: ``w = J v_new - rhs`` must not pull on a zero normal or
+    limit, nor slip a zero friction row of a holding contact. True when ``p`` (nn,), the
+    new velocities ``vn`` (nbody, 6) and the bilateral rows' ``y`` (nb,) solve the mixed
+    LCP; False leaves the full complement to decide.
+
+    One pass of the tree does it all: ``[0; g]`` (``g`` the bilateral rows' right-hand
+    side) is forward substituted, each held row's column ``L^-1 J^T`` is made along its
+    path (``tree_row_columns``) and gives its row of ``S`` and its ``c``, and once the
+    impulses are known their columns are added and one back substitution gives the
+    velocities. Bodies outside the tree answer with their own inverse mass."""
+    nbody = vel.shape[0]
+    rsel = np.empty(ns, np.int64)
+    alone = np.zeros(nbody, np.bool_)
+    dva = np.zeros((ns, 12))                     # M^-1 J^T, for the bodies on their own
+    for t in range(ns):
+        r = idx[oth[sub[t]]]
+        rsel[t] = r
+        for side in range(2):
+            body = rows.body_b[r] if side else rows.body_a[r]
+            if body >= 0 and inv_mass[body] > 0.0 and plan.dim[body] != 6:
+                alone[body] = True
+                minv_jt(rows, r, inv_mass, inv_inertia, dva[t])
+    nnode = plan.opos.shape[0]
+    H = np.zeros((ns, plan.z.shape[0]))
+    member = np.zeros((ns, nnode), np.bool_)
+    path = np.empty((ns, nnode), np.int64)
+    plen = np.empty(ns, np.int64)
+    tree_load(plan, nbody, vn, np.bool_(False), g)
+    tree_forward(plan, nbody)
+    tree_row_columns(plan, nbody, rows, rsel, ns, H, member, path, plen)
+    S = np.empty((ns, ns))
+    cvec = np.empty(ns)
+    for t in range(ns):
+        ra = rsel[t]
+        cvec[t] = b[oth[sub[t]]] - tree_column_dot(plan, nbody, H, path, plen, t, plan.z,
+                                                   member[t], np.bool_(False))
+        for tb in range(t + 1):
+            rb = rsel[tb]
+            acc = tree_column_dot(plan, nbody, H, path, plen, t, H[tb], member[tb],
+                                  np.bool_(True))
+            for sb in range(2):
+                body = rows.body_b[rb] if sb else rows.body_a[rb]
+                if body < 0 or not alone[body]:
+                    continue
+                for sa in range(2):
+                    if (rows.body_b[ra] if sa else rows.body_a[ra]) == body:
+                        for k in range(6):
+                            acc += rows.J[rb, 6 * sb + k] * dva[t, 6 * sa + k]
+            S[t, tb] = acc
+            S[tb, t] = acc
+        S[t, t] += rows.cfm[ra]
     ok, pmax = _solve_held(rows, idx, oth, sub, ns, state, S, cvec, p, np.empty(ns, np.int64),
                            np.empty((ns, ns)), np.empty((ns, ns)), np.empty(ns), np.empty(ns))
     if not ok:
@@ -302,7 +350,17 @@ def _guess_on_tree(rows, idx, where, kind, oth, nn, sub, ns, state, b, plan, nb,
     tol_w, tol_p = _slack(_GUESS_TOL, cmax, smax, pmax)
     if not _holding_ok(rows, idx, where, kind, oth, nn, state, p, tol_p):
         return False
-    _respond(rows, idx, oth, sub, ns, p, plan, nb, slot, alone, dva, vel, angvel, u0, vn, y1)
+    pt = np.empty(ns)
+    for t in range(ns):
+        pt[t] = p[sub[t]]
+    tree_add_columns(plan, H, path, plen, ns, pt)
+    tree_backward(plan, nbody)
+    tree_unload(plan, nbody, vn, y)
+    for body in range(nbody):
+        for k in range(3):
+            vn[body, k] += vel[body, k]
+            vn[body, 3 + k] += angvel[body, k]
+    _push(rows, idx, oth, sub, ns, p, alone, np.bool_(True), dva, vn)   # the others
     for a in range(nn):
         st = state[a]
         if st == _EQUAL:

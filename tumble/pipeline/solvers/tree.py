@@ -200,82 +200,81 @@ def _empty_plan():
                     np.zeros(1), z, np.zeros(1), z, z, z, np.zeros(1), np.zeros(1))
 
 
-@njit(cache=True, inline="always")
-def _joff(rows, r, b):
-    """Column offset (0 or 6) of body ``b``'s part of row ``r``'s Jacobian."""
-    return 0 if rows.body_a[r] == b else 6
+# The block kernels below index views (``fac[lo:lo + d * d]``, not ``fac[lo + i * d + k]``):
+# an index that is a loop counter is known to be non-negative, so Numba drops its
+# negative-index wrap-around, which otherwise costs a compare and a select per access
+# (a third of the factorisation's time).
 
-
 @njit(cache=True, inline="always")
-def _chol_block(a, off, d, dinv, doff):
-    """In-place Cholesky of the d x d row-major block at ``a[off:]`` (lower triangle), the
-    reciprocals of its diagonal into ``dinv[doff:]`` (multiplying beats dividing in the
+def _chol_block(a, d, dv):
+    """In-place Cholesky of the d x d row-major block ``a`` (a view; lower triangle), the
+    reciprocals of its diagonal into ``dv`` (multiplying beats dividing in the
     substitutions). False if not positive definite."""
     ok = True
     for i in range(d):
         for k in range(i + 1):
-            s = a[off + i * d + k]
+            s = a[i * d + k]
             for t in range(k):
-                s -= a[off + i * d + t] * a[off + k * d + t]
+                s -= a[i * d + t] * a[k * d + t]
             if i == k:
                 if s <= 1e-300:
                     ok = False
                     s = 1.0
                 r = np.sqrt(s)
-                a[off + i * d + i] = r
-                dinv[doff + i] = 1.0 / r
+                a[i * d + i] = r
+                dv[i] = 1.0 / r
             else:
-                a[off + i * d + k] = s * dinv[doff + k]
+                a[i * d + k] = s * dv[k]
     return ok
 
 
 @njit(cache=True, inline="always")
-def _eliminate_block(fac, lo, d, dinv, di, wm, wo, dp, op):
-    """``W = L^-1 K`` in place (``wm[wo:]``, d x dp, K on entry) with the factor at
-    ``fac[lo:]``, then ``P_parent += W^T W`` (the dp x dp block at ``fac[op:]``; only its
-    lower triangle, the part the Cholesky reads)."""
+def _eliminate_block(a, d, dv, w, dp, par):
+    """``W = L^-1 K`` in place (``w``, d x dp, K on entry) with the factor ``a``, then
+    ``P_parent += W^T W`` (``par``, dp x dp; only its lower triangle, the part the
+    Cholesky reads). All arguments are views of the plan's arrays."""
     for i in range(d):
-        inv = dinv[di + i]
+        inv = dv[i]
         for k in range(i):
-            el = fac[lo + i * d + k]
+            el = a[i * d + k]
             for c in range(dp):
-                wm[wo + i * dp + c] -= el * wm[wo + k * dp + c]
+                w[i * dp + c] -= el * w[k * dp + c]
         for c in range(dp):
-            wm[wo + i * dp + c] *= inv
+            w[i * dp + c] *= inv
     for i in range(d):
-        for a in range(dp):
-            x = wm[wo + i * dp + a]
-            for c in range(a + 1):
-                fac[op + a * dp + c] += x * wm[wo + i * dp + c]
+        for x in range(dp):
+            y = w[i * dp + x]
+            for c in range(x + 1):
+                par[x * dp + c] += y * w[i * dp + c]
 
 
 @njit(cache=True, inline="always")
-def _forward_node(z, o, d, fac, lo, dinv, wm, wo, dp, op, sign):
-    """``z_u <- L_u^-1 z_u``, then ``z_parent -= sign W_u^T z_u`` (dp = 0: no parent)."""
+def _forward_node(zu, d, a, dv, w, dp, zp, sign):
+    """``z_u <- L_u^-1 z_u``, then ``z_parent -= sign W_u^T z_u`` (dp = 0: no parent); views."""
     for i in range(d):
-        s = z[o + i]
+        s = zu[i]
         for k in range(i):
-            s -= fac[lo + i * d + k] * z[o + k]
-        z[o + i] = s * dinv[o + i]
+            s -= a[i * d + k] * zu[k]
+        zu[i] = s * dv[i]
     for i in range(d):
-        x = sign * z[o + i]
+        x = sign * zu[i]
         for c in range(dp):
-            z[op + c] -= wm[wo + i * dp + c] * x
+            zp[c] -= w[i * dp + c] * x
 
 
 @njit(cache=True, inline="always")
-def _backward_node(z, o, d, fac, lo, dinv, wm, wo, dp, op):
-    """``z_u <- L_u^-T (z_u - W_u z_parent)`` (dp = 0: no parent)."""
+def _backward_node(zu, d, a, dv, w, dp, zp):
+    """``z_u <- L_u^-T (z_u - W_u z_parent)`` (dp = 0: no parent); views."""
     for i in range(d):
         s = 0.0
         for c in range(dp):
-            s += wm[wo + i * dp + c] * z[op + c]
-        z[o + i] -= s
+            s += w[i * dp + c] * zp[c]
+        zu[i] -= s
     for i in range(d - 1, -1, -1):
-        s = z[o + i]
+        s = zu[i]
         for k in range(i + 1, d):
-            s -= fac[lo + k * d + i] * z[o + k]
-        z[o + i] = s * dinv[o + i]
+            s -= a[k * d + i] * zu[k]
+        zu[i] = s * dv[i]
 
 
 @njit(cache=True, inline="always")
@@ -353,24 +352,24 @@ def tree_factor(plan, rows, sel, cfm, inv_mass, inv_inertia, nbody):
     for t in range(norder):
         u = plan.order[t]
         d = dim[u]
-        o = foff[u]
+        a = fac[foff[u]:foff[u] + d * d]
         for k in range(d * d):
-            fac[o + k] = 0.0
+            a[k] = 0.0
         if u < nbody:
             m = 1.0 / inv_mass[u]
             for k in range(3):
-                fac[o + k * 6 + k] = m
+                a[k * 6 + k] = m
             iw = _inv3(inv_inertia[u])
             for i in range(3):
                 for k in range(3):
-                    fac[o + (3 + i) * 6 + 3 + k] = iw[i * 3 + k]
+                    a[(3 + i) * 6 + 3 + k] = iw[i * 3 + k]
         else:
             p = u - nbody
             k = 0
             for e in range(plan.pair_start[p], plan.pair_start[p + 1]):
                 i = plan.pair_rows[e]
                 if plan.use[i]:
-                    fac[o + k * d + k] = cfm[i]
+                    a[k * d + k] = cfm[i]
                     k += 1
     # eliminate children first: P_u = L L^T, W = L^-1 K_u,parent, P_parent += W^T W
     # (blocks of six, a body's and most joints', get kernels compiled for that size)
@@ -380,9 +379,9 @@ def tree_factor(plan, rows, sel, cfm, inv_mass, inv_inertia, nbody):
         d = dim[u]
         if d == 0:
             continue
-        lo = foff[u]
-        di = zoff[u]
-        ok = _chol_block(fac, lo, 6, dinv, di) if d == 6 else _chol_block(fac, lo, d, dinv, di)
+        a = fac[foff[u]:foff[u] + d * d]
+        dv = dinv[zoff[u]:zoff[u] + d]
+        ok = _chol_block(a, 6, dv) if d == 6 else _chol_block(a, d, dv)
         if not ok:
             return False
         pa = plan.eparent[u]
@@ -390,17 +389,19 @@ def tree_factor(plan, rows, sel, cfm, inv_mass, inv_inertia, nbody):
             continue
         dp = dim[pa]
         wo = plan.w_off[u]
-        _coupling(plan, rows, sel, u, pa, nbody, wm, wo, dp)
+        w = wm[wo:wo + d * dp]
+        _coupling(plan, rows, sel, u, pa, nbody, w, dp)
+        par = fac[foff[pa]:foff[pa] + dp * dp]
         if d == 6 and dp == 6:
-            _eliminate_block(fac, lo, 6, dinv, di, wm, wo, 6, foff[pa])
+            _eliminate_block(a, 6, dv, w, 6, par)
         else:
-            _eliminate_block(fac, lo, d, dinv, di, wm, wo, dp, foff[pa])
+            _eliminate_block(a, d, dv, w, dp, par)
     return True
 
 
 @noalloc
-def _coupling(plan, rows, sel, u, pa, nbody, wm, wo, dp):
-    """wm[wo:] = K_{u, pa} (dim u x dp, row-major): a pair's Jacobian block on its parent
+def _coupling(plan, rows, sel, u, pa, nbody, w, dp):
+    """w = K_{u, pa} (a view, dim u x dp, row-major): a pair's Jacobian block on its parent
     body, or a body's (6 x m) transposed block of its parent pair."""
     # the same Jacobian entries either way: a pair's row k on the body is row k of the
     # block (u pair, pa body) or column k of it (u body, pa pair: K = J_pa,u^T)
@@ -413,10 +414,22 @@ def _coupling(plan, rows, sel, u, pa, nbody, wm, wo, dp):
         i = plan.pair_rows[e]
         if plan.use[i]:
             r = sel[i]
-            o = _joff(rows, r, body)
+            jac = rows.J[r, 6:] if rows.body_a[r] != body else rows.J[r, :6]
             for c in range(6):
-                wm[wo + k * row_step + c * col_step] = rows.J[r, o + c]
+                w[k * row_step + c * col_step] = jac[c]
             k += 1
+
+
+@njit(cache=True, inline="always")
+def _node_views(plan, u, d, z, fac, dinv, wm):
+    """Views of node ``u`` (dim ``d``): its unknowns, factor, reciprocal diagonal, W block,
+    its parent's dim and unknowns (dim 0 and an empty view without a parent)."""
+    pa = plan.eparent[u]
+    dp = plan.dim[pa] if pa >= 0 else 0
+    op = plan.z_off[pa] if pa >= 0 else 0
+    o, lo, wo = plan.z_off[u], plan.fac_off[u], plan.w_off[u]
+    return (z[o:o + d], fac[lo:lo + d * d], dinv[o:o + d], wm[wo:wo + d * dp], dp,
+            z[op:op + dp])
 
 
 @noalloc
@@ -428,61 +441,164 @@ def tree_solve(plan, nbody, f, g, u_out, y_out):
     u_out (nbody, 6) : the bodies' unknowns (zero for bodies outside the system).
     y_out (n,) : the rows' unknowns (zero for rows not in use). ``y = -p``.
     """
-    norder = plan.meta[1]
-    z, fac, dim, foff, zoff, wm = plan.z, plan.fac, plan.dim, plan.fac_off, plan.z_off, plan.wmat
-    dinv = plan.dinv
-    for t in range(norder):
+    tree_load(plan, nbody, f, np.bool_(True), g)
+    tree_forward(plan, nbody)
+    tree_backward(plan, nbody)
+    tree_unload(plan, nbody, u_out, y_out)
+
+
+@noalloc
+def tree_load(plan, nbody, f, with_f, g):
+    """``z = [f; g]`` (``f`` read only ``with_f``, else zero): the right-hand side of
+    ``tree_solve``, which runs these four phases; callers that add columns to the
+    forward-substituted ``z`` (``tree_row_columns``) run them one by one."""
+    z, zoff = plan.z, plan.z_off
+    for t in range(plan.meta[1]):
         u = plan.order[t]
         if u < nbody:
-            o = zoff[u]
+            zu = z[zoff[u]:zoff[u] + 6]
             for k in range(6):
-                z[o + k] = f[u, k]
-    n = y_out.shape[0]
-    for i in range(n):
+                zu[k] = f[u, k] if with_f else 0.0
+    for i in range(g.shape[0]):
         if plan.row_z[i] >= 0:
             z[plan.row_z[i]] = g[i]
-    # forward, children first: z_u <- L_u^-1 z_u, z_parent -= s_u W_u^T z_u
-    for t in range(norder - 1, -1, -1):
+
+
+@noalloc
+def tree_forward(plan, nbody):
+    """Forward substitution, children first: ``z_u <- L_u^-1 z_u``,
+    ``z_parent -= s_u W_u^T z_u``."""
+    z, fac, dim, wm, dinv = plan.z, plan.fac, plan.dim, plan.wmat, plan.dinv
+    for t in range(plan.meta[1] - 1, -1, -1):
         u = plan.order[t]
         d = dim[u]
         if d == 0:
             continue
-        pa = plan.eparent[u]
-        dp = dim[pa] if pa >= 0 else 0
-        op = zoff[pa] if pa >= 0 else 0
+        zu, a, dv, w, dp, zp = _node_views(plan, u, d, z, fac, dinv, wm)
         sign = 1.0 if u < nbody else -1.0
         if d == 6 and dp == 6:
-            _forward_node(z, zoff[u], 6, fac, foff[u], dinv, wm, plan.w_off[u], 6, op, sign)
+            _forward_node(zu, 6, a, dv, w, 6, zp, sign)
         else:
-            _forward_node(z, zoff[u], d, fac, foff[u], dinv, wm, plan.w_off[u], dp, op, sign)
-    # backward, parents first: x_u = s_u L_u^-T (z_u - W_u x_parent)
-    for t in range(norder):
+            _forward_node(zu, d, a, dv, w, dp, zp, sign)
+
+
+@noalloc
+def tree_backward(plan, nbody):
+    """Back substitution, parents first: ``x_u = s_u L_u^-T (z_u - W_u x_parent)``."""
+    z, fac, dim, wm, dinv = plan.z, plan.fac, plan.dim, plan.wmat, plan.dinv
+    for t in range(plan.meta[1]):
         u = plan.order[t]
         d = dim[u]
         if d == 0:
             continue
-        pa = plan.eparent[u]
-        dp = dim[pa] if pa >= 0 else 0
-        op = zoff[pa] if pa >= 0 else 0
+        zu, a, dv, w, dp, zp = _node_views(plan, u, d, z, fac, dinv, wm)
         if d == 6 and dp == 6:
-            _backward_node(z, zoff[u], 6, fac, foff[u], dinv, wm, plan.w_off[u], 6, op)
+            _backward_node(zu, 6, a, dv, w, 6, zp)
         else:
-            _backward_node(z, zoff[u], d, fac, foff[u], dinv, wm, plan.w_off[u], dp, op)
+            _backward_node(zu, d, a, dv, w, dp, zp)
         if u >= nbody:
-            o = zoff[u]
             for i in range(d):
-                z[o + i] = -z[o + i]
+                zu[i] = -zu[i]
+
+
+@noalloc
+def tree_unload(plan, nbody, u_out, y_out):
+    """The solution in ``z`` into ``u_out`` (nbody, 6) and ``y_out`` (n,) (see tree_solve)."""
+    z, zoff = plan.z, plan.z_off
     for b in range(nbody):
         for k in range(6):
             u_out[b, k] = 0.0
-    for t in range(norder):
+    for t in range(plan.meta[1]):
         u = plan.order[t]
         if u < nbody:
-            o = zoff[u]
+            zu = z[zoff[u]:zoff[u] + 6]
             for k in range(6):
-                u_out[u, k] = z[o + k]
-    for i in range(n):
+                u_out[u, k] = zu[k]
+    for i in range(y_out.shape[0]):
         y_out[i] = z[plan.row_z[i]] if plan.row_z[i] >= 0 else 0.0
+
+
+@noalloc
+def tree_row_columns(plan, nbody, rows, rsel, ns, H, member, path, plen):
+    """``h_t = L^-1 f_t`` for the outside rows ``rsel[:ns]``, ``f_t`` the row's Jacobian
+    on its bodies in the tree (force-like): the column ``tree_forward`` would make of a
+    unit impulse on the row. ``h_t`` is nonzero only on the paths from those bodies to
+    their root, so each row costs its path.
+
+    With them ``J_t M_B^-1 J_s^T = sum_u s_u h_t,u . h_s,u`` (``tree_column_dot``), the
+    velocity ``J_t u`` of the solution of ``[0; g]`` is that sum against the forward
+    substituted ``z``, and impulses ``p`` on the rows add ``sum_t p_t h_t`` to it
+    (``tree_add_columns``) before ``tree_backward``.
+    H (ns, 6 nbody + rows) zero on entry; member (ns, nbody + rows) bool False on entry;
+    path (ns, nbody + rows) int64 out: the nodes of each column, children first;
+    plen (ns,) int64 out: their number."""
+    dim, zoff, opos = plan.dim, plan.z_off, plan.opos
+    fac, wm, dinv = plan.fac, plan.wmat, plan.dinv
+    for t in range(ns):
+        r = rsel[t]
+        n = np.int64(0)
+        for side in range(2):
+            body = rows.body_b[r] if side else rows.body_a[r]
+            if body < 0 or dim[body] != 6:
+                continue
+            hb = H[t, zoff[body]:zoff[body] + 6]
+            for k in range(6):
+                hb[k] += rows.J[r, 6 * side + k]
+            u = body
+            while u >= 0 and not member[t, u]:
+                member[t, u] = True
+                # insertion by elimination position, children (later in `order`) first
+                q = n
+                while q > 0 and opos[path[t, q - 1]] < opos[u]:
+                    path[t, q] = path[t, q - 1]
+                    q -= 1
+                path[t, q] = u
+                n += 1
+                u = plan.eparent[u]
+        plen[t] = n
+        h = H[t]
+        for q in range(n):
+            u = path[t, q]
+            d = dim[u]
+            hu, a, dv, w, dp, hp = _node_views(plan, u, d, h, fac, dinv, wm)
+            sign = 1.0 if u < nbody else -1.0
+            if d == 6 and dp == 6:
+                _forward_node(hu, 6, a, dv, w, 6, hp, sign)
+            else:
+                _forward_node(hu, d, a, dv, w, dp, hp, sign)
+
+
+@noalloc
+def tree_column_dot(plan, nbody, H, path, plen, t, x, xm, restrict):
+    """``sum_u s_u h_t,u . x_u`` over the nodes of column ``t``: with ``restrict``, only
+    those in ``xm`` (the nodes of another column ``x``, a row of ``member``); without,
+    ``x`` covers every node (the forward substituted ``z``)."""
+    dim, zoff = plan.dim, plan.z_off
+    acc = 0.0
+    for q in range(plen[t]):
+        u = path[t, q]
+        if restrict and not xm[u]:
+            continue
+        o = zoff[u]
+        s = 0.0
+        for e in range(dim[u]):
+            s += H[t, o + e] * x[o + e]
+        acc += s if u < nbody else -s
+    return acc
+
+
+@noalloc
+def tree_add_columns(plan, H, path, plen, ns, p):
+    """``z += sum_t p_t h_t`` over the columns' nodes (p (ns,))."""
+    z, dim, zoff = plan.z, plan.dim, plan.z_off
+    for t in range(ns):
+        if p[t] == 0.0:
+            continue
+        for q in range(plen[t]):
+            u = path[t, q]
+            o = zoff[u]
+            for e in range(dim[u]):
+                z[o + e] += p[t] * H[t, o + e]
 
 
 # ------------------------------------------------------------------ plans kept across steps
@@ -596,21 +712,22 @@ def _copy_into(src, dst):
 # ----------------------------------------------- inverse mass of a few bodies of the tree
 
 @njit(cache=True, inline="always")
-def _forward_columns(h, o, d, fac, lo, dinv, wm, wo, dp, op, sign):
-    """``_forward_node`` on the six columns of ``h`` (z positions, 6)."""
+def _forward_columns(hu, d, a, dv, w, dp, hp, sign):
+    """``_forward_node`` on six columns: ``hu`` (d, 6) and ``hp`` (dp, 6) are views of the
+    node's and its parent's rows of ``h``."""
     for i in range(d):
-        inv = dinv[o + i]
+        inv = dv[i]
         for k in range(i):
-            el = fac[lo + i * d + k]
+            el = a[i * d + k]
             for c in range(6):
-                h[o + i, c] -= el * h[o + k, c]
+                hu[i, c] -= el * hu[k, c]
         for c in range(6):
-            h[o + i, c] *= inv
+            hu[i, c] *= inv
     for i in range(d):
         for e in range(dp):
-            x = sign * wm[wo + i * dp + e]
+            x = sign * w[i * dp + e]
             for c in range(6):
-                h[op + e, c] -= x * h[o + i, c]
+                hp[e, c] -= x * hu[i, c]
 
 
 @noalloc
@@ -640,13 +757,14 @@ def tree_body_inverse(plan, bodies, nc, nbody, H, member, G):
             pa = plan.eparent[u]
             dp = dim[pa] if pa >= 0 else 0
             op = zoff[pa] if pa >= 0 else 0
+            o, lo, wo = zoff[u], foff[u], plan.w_off[u]
+            hu, hp = H[a, o:o + d], H[a, op:op + dp]
+            fa, dv, w = fac[lo:lo + d * d], dinv[o:o + d], wm[wo:wo + d * dp]
             sign = 1.0 if u < nbody else -1.0
             if d == 6 and dp == 6:
-                _forward_columns(H[a], zoff[u], 6, fac, foff[u], dinv, wm, plan.w_off[u], 6, op,
-                                 sign)
+                _forward_columns(hu, 6, fa, dv, w, 6, hp, sign)
             else:
-                _forward_columns(H[a], zoff[u], d, fac, foff[u], dinv, wm, plan.w_off[u], dp, op,
-                                 sign)
+                _forward_columns(hu, d, fa, dv, w, dp, hp, sign)
             u = pa
     for a in range(nc):
         for bb in range(a + 1):
@@ -657,12 +775,13 @@ def tree_body_inverse(plan, bodies, nc, nbody, H, member, G):
             while u >= 0:
                 if member[bb, u]:
                     o = zoff[u]
+                    ha, hb, g = H[a, o:o + dim[u]], H[bb, o:o + dim[u]], G[a, bb]
                     sign = 1.0 if u < nbody else -1.0
                     for e in range(dim[u]):
                         for i in range(6):
-                            x = sign * H[a, o + e, i]
+                            x = sign * ha[e, i]
                             for k in range(6):
-                                G[a, bb, i, k] += x * H[bb, o + e, k]
+                                g[i, k] += x * hb[e, k]
                 u = plan.eparent[u]
             if bb != a:
                 for i in range(6):
