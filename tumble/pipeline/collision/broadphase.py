@@ -95,7 +95,7 @@ def broadphase_pairs(aabb_lo, aabb_hi, out_pairs, geom_body=None):
     keys = np.empty(G)
     for i in range(G):
         keys[i] = aabb_lo[i, ax]
-    order = np.argsort(keys, kind="mergesort")
+    order = _stable_order(keys)
     count = 0
     for ii in range(G):
         i = order[ii]
@@ -109,6 +109,41 @@ def broadphase_pairs(aabb_lo, aabb_hi, out_pairs, geom_body=None):
     return count
 
 
+# Below this many items an insertion sort beats NumPy's sorts (no allocation, no set-up):
+# a character's dozen or two geoms and their few dozen pairs.
+_SMALL = 48
+
+
+@njit(cache=True, inline="always")
+def _insertion_sort(a):
+    """Sort ``a`` in place, ascending."""
+    for i in range(1, a.shape[0]):
+        x = a[i]
+        k = i
+        while k > 0 and a[k - 1] > x:
+            a[k] = a[k - 1]
+            k -= 1
+        a[k] = x
+
+
+@njit(cache=True)
+def _stable_order(keys):
+    """Indices that sort ``keys`` ascending, ties in index order (``argsort``, mergesort)."""
+    n = keys.shape[0]
+    if n > _SMALL:
+        return np.argsort(keys, kind="mergesort")
+    order = np.arange(n)
+    for i in range(1, n):
+        o = order[i]
+        x = keys[o]
+        k = i
+        while k > 0 and keys[order[k - 1]] > x:
+            order[k] = order[k - 1]
+            k -= 1
+        order[k] = o
+    return order
+
+
 @njit(cache=True)
 def sort_pairs(out_pairs, m, G):
     """Sort the first ``m`` rows of ``out_pairs`` (each ``i < j < G``) lexicographically."""
@@ -116,7 +151,10 @@ def sort_pairs(out_pairs, m, G):
         pk = np.empty(m, dtype=np.int64)
         for r in range(m):
             pk[r] = np.int64(out_pairs[r, 0]) * G + np.int64(out_pairs[r, 1])
-        pk.sort()
+        if m <= _SMALL:
+            _insertion_sort(pk)
+        else:
+            pk.sort()
         for r in range(m):
             out_pairs[r, 0] = pk[r] // G
             out_pairs[r, 1] = pk[r] % G

@@ -51,11 +51,12 @@ def set_row(rows, r, a, b, lin_a, ang_a, lin_b, ang_b, rhs, cfm, lo, hi):
     """Write row ``r`` of the row arrays (see the module docstring)."""
     rows.body_a[r] = a
     rows.body_b[r] = b
+    jr = rows.J[r]           # a view: its indices need no negative wrap-around
     for k in range(3):
-        rows.J[r, k] = lin_a[k]
-        rows.J[r, 3 + k] = ang_a[k]
-        rows.J[r, 6 + k] = lin_b[k]
-        rows.J[r, 9 + k] = ang_b[k]
+        jr[k] = lin_a[k]
+        jr[3 + k] = ang_a[k]
+        jr[6 + k] = lin_b[k]
+        jr[9 + k] = ang_b[k]
     rows.rhs[r] = rhs
     rows.cfm[r] = cfm
     rows.lo[r] = lo

@@ -52,12 +52,13 @@ def minv_jt(rows, r, inv_mass, inv_inertia, out):
                 out[o + k] = 0.0
             continue
         im = inv_mass[b]
+        jr, ii = rows.J[r], inv_inertia[b]      # views: no negative-index wrap-around
         for k in range(3):
-            out[o + k] = im * rows.J[r, o + k]
+            out[o + k] = im * jr[o + k]
         for i in range(3):
             s = 0.0
             for k in range(3):
-                s += inv_inertia[b, i, k] * rows.J[r, o + 3 + k]
+                s += ii[i, k] * jr[o + 3 + k]
             out[o + 3 + i] = s
 
 
@@ -65,13 +66,15 @@ def minv_jt(rows, r, inv_mass, inv_inertia, out):
 def row_velocity(rows, r, vel, angvel):
     """``J_r v``: the row's current velocity."""
     s = 0.0
+    jr = rows.J[r]
     for side in range(2):
         b = rows.body_a[r] if side == 0 else rows.body_b[r]
         if b < 0:
             continue
         o = 6 * side
+        vb, wb = vel[b], angvel[b]
         for k in range(3):
-            s += rows.J[r, o + k] * vel[b, k] + rows.J[r, o + 3 + k] * angvel[b, k]
+            s += jr[o + k] * vb[k] + jr[o + 3 + k] * wb[k]
     return s
 
 
@@ -83,9 +86,10 @@ def apply_impulse(rows, r, dv, p, vel, angvel):
         if b < 0:
             continue
         o = 6 * side
+        vb, wb = vel[b], angvel[b]
         for k in range(3):
-            vel[b, k] += dv[o + k] * p
-            angvel[b, k] += dv[o + 3 + k] * p
+            vb[k] += dv[o + k] * p
+            wb[k] += dv[o + 3 + k] * p
 
 
 @noalloc

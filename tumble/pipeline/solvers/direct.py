@@ -134,8 +134,9 @@ def row_dot(rows, r, acc):
         if body < 0:
             continue
         o = 6 * side
+        jr, ab = rows.J[r], acc[body]
         for k in range(6):
-            s += rows.J[r, o + k] * acc[body, k]
+            s += jr[o + k] * ab[k]
     return s
 
 
