@@ -15,13 +15,20 @@ from numba import njit
 
 from .._jit import noalloc
 from ..math.quat import quat_exp, quat_mul, quat_normalize
-from .joints.rows import build_core_rows
+from .joints.rows import build_core_rows, core_error
 from .solvers.common import world_inverse_inertia
 from .solvers.direct import assemble, cholesky_apply, cholesky_factor, row_responses
 from .solvers.tree import tree_factor, tree_plan, tree_solve
 
 # Relative regularisation of the projection system: keeps redundant rows (loops) solvable.
 _REGULARISATION = 1e-10
+
+
+@njit(cache=True, inline="always")
+def _rigid(m, j):
+    """Whether joint ``j`` is rigid: no spring, no own CFM (soft joints are meant to give)."""
+    return not (m.joint_stiffness[j] != 0.0 or m.joint_soft_damping[j] != 0.0
+                or m.joint_cfm[j] > 0.0)
 
 
 @noalloc
@@ -31,7 +38,7 @@ def _rigid_core_rows(m, rows, idx):
     are written into ``rows`` as build_joint_rows writes them."""
     n = 0
     for j in range(m.joint_type.shape[0]):
-        if m.joint_stiffness[j] != 0.0 or m.joint_soft_damping[j] != 0.0 or m.joint_cfm[j] > 0.0:
+        if not _rigid(m, j):
             continue
         for r in range(m.joint_row_start[j], m.joint_row_start[j] + m.joint_core_rows[j]):
             if n < idx.shape[0]:
@@ -69,20 +76,20 @@ def project_joints(m, pos, quat, rows, inv_inertia, iterations, tolerance, setup
     when the joints form loops."""
     idx, tree, plan, dv, b, A, work, reg, y, u, fzero, zero = setup
     n = idx.shape[0]
-    if n == 0 or _largest_core_error(m, pos, quat, rows, idx, n) < tolerance:
+    if n == 0 or _largest_core_error(m, pos, quat, rows) < tolerance:
         return
     _project(m, pos, quat, rows, inv_inertia, iterations, tolerance, idx, n,
              tree, plan, dv, b, A, work, reg, y, u, fzero, zero)
 
 
 @noalloc
-def _largest_core_error(m, pos, quat, rows, idx, n):
-    """Largest position error (m or rad) of the rows ``idx``: the rhs of the core rows
-    built with h = 1, ERP = 1 (``build_core_rows``), as ``_project`` measures it."""
-    build_core_rows(m, pos, quat, rows)
+def _largest_core_error(m, pos, quat, rows):
+    """Largest position error (m or rad) of the rigid joints' core rows (``core_error``),
+    the first thing ``_project`` would measure."""
     biggest = 0.0
-    for i in range(n):
-        biggest = max(biggest, abs(rows.rhs[idx[i]]))
+    for j in range(m.joint_type.shape[0]):
+        if _rigid(m, j):
+            biggest = max(biggest, core_error(m, pos, quat, rows, j))
     return biggest
 
 
@@ -95,10 +102,8 @@ def _project(m, pos, quat, rows, inv_inertia, iterations, tolerance, idx, n, tre
     # tolerance, a further iteration would cost a factorisation for nothing visible
     done = max(1e-3 * tolerance, 1e-12)
     for it in range(iterations):
-        # with h = 1 and ERP = 1 each core row's rhs is minus its position error (the first
-        # iteration's rows are those _largest_core_error has just built)
-        if it > 0:
-            build_core_rows(m, pos, quat, rows)
+        # with h = 1 and ERP = 1 each core row's rhs is minus its position error
+        build_core_rows(m, pos, quat, rows)
         world_inverse_inertia(m, quat, inv_inertia)
         for i in range(n):
             rows.cfm[idx[i]] = 0.0

@@ -466,7 +466,7 @@ def test_guessed_active_set_solves_the_lcp(seed, ncontact, nbox, nbody, guess):
     assert pyramid_residual(rows, n, S, c, p) <= 1e-8 * scale
     if guess == "right":
         state = np.zeros(n, np.int64)
-        if ML._guess_states(rows, idx, where, kind, oth, n, p_ref, state):
+        if ML._guess_states(rows, idx, where, kind, oth, n, p_ref, state, np.zeros(2 * n)):
             p2 = np.zeros(n)
             took = ML._guessed_active_set(rows, idx, where, kind, oth, n, S, c, state, p2,
                                           *scratch(n))
@@ -490,7 +490,7 @@ def test_right_guess_skips_lemke():
         assert ML._pyramid_lcp(rows, idx, where, kind, oth, n, S, c, np.zeros(n), 0, False,
                                p_ref) == 0
         state = np.zeros(n, np.int64)
-        if not ML._guess_states(rows, idx, where, kind, oth, n, p_ref, state):
+        if not ML._guess_states(rows, idx, where, kind, oth, n, p_ref, state, np.zeros(2 * n)):
             sliding += 1
             continue
         p = np.zeros(n)

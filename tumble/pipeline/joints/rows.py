@@ -127,6 +127,24 @@ def build_joint_rows(m, pos, quat, vel, angvel, drive, h, erp, cfm, rows, servo_
 
 
 @noalloc
+def core_error(m, pos, quat, rows, j):
+    """Largest position error (m or rad) of joint ``j``'s core rows, as ``build_core_rows``
+    measures it (the |rhs| of its rows); a ball joint's from its anchors alone, any other
+    type's by writing its core rows."""
+    anchor_a, anchor_b, r_a, r_b, frame_a, frame_b = joint_frames(m, pos, quat, j)
+    if m.joint_type[j] == BALL:
+        return max(abs(anchor_b[0] - anchor_a[0]), abs(anchor_b[1] - anchor_a[1]),
+                   abs(anchor_b[2] - anchor_a[2]))
+    r0 = m.joint_row_start[j]
+    core_rows(m.joint_type[j], rows, r0, m.joint_parent[j], m.joint_child[j], anchor_a,
+              anchor_b, r_a, r_b, frame_a, frame_b, 1.0, 0.0)
+    biggest = 0.0
+    for r in range(r0, r0 + m.joint_core_rows[j]):
+        biggest = max(biggest, abs(rows.rhs[r]))
+    return biggest
+
+
+@noalloc
 def build_core_rows(m, pos, quat, rows):
     """Write only the core rows of every joint (those that hold it together) with h = 1,
     ERP = 1 and no CFM: each row's rhs is then minus its position error (m or rad), as

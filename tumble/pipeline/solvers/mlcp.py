@@ -162,7 +162,8 @@ def _mlcp_tree(rows, nrow, idx, where, n, kind, bil, nb, oth, nn, bsel, plan, in
     vn = np.empty((nbody, 6))
     y = np.empty(nb)
     sub = np.empty(nn, np.int64)
-    if _guess_states(rows, idx, where, kind, oth, nn, impulse, state):
+    if _guess_states(rows, idx, where, kind, oth, nn, impulse, state,
+                     np.zeros(2 * impulse.shape[0])):
         ns = np.int64(0)
         for a in range(nn):
             if state[a] != _ZERO:
@@ -539,7 +540,8 @@ def _lcp_on_schur(rows, idx, where, kind, oth, nn, S, cvec, impulse, max_pivots,
     rows' bounds. Tries last step's contact state first (``_guessed_active_set``), then
     Lemke on the friction-pyramid LCP. Returns Lemke's status."""
     state = np.zeros(nn, np.int64)
-    if _guess_states(rows, idx, where, kind, oth, nn, impulse, state):
+    if _guess_states(rows, idx, where, kind, oth, nn, impulse, state,
+                     np.zeros(2 * impulse.shape[0])):
         if _guessed_active_set(rows, idx, where, kind, oth, nn, S, cvec, state, p_n,
                                np.arange(nn), np.empty(nn, np.int64), np.empty((nn, nn)),
                                np.empty((nn, nn)), np.empty(nn), np.empty(nn), np.empty(nn)):
@@ -555,13 +557,14 @@ _ZERO, _EQUAL, _AT_LO, _AT_HI = 0, 1, 2, 3
 
 
 @noalloc
-def _guess_states(rows, idx, where, kind, oth, nn, impulse, state):
+def _guess_states(rows, idx, where, kind, oth, nn, impulse, state, load):
     """Each row's state from last step's impulses: a pushing normal or limit holds
     (``_EQUAL``), others are zero; a friction row of a pushing contact holds if it
     carried impulse, else stays zero (sticking contacts of one body are redundant in
     their tangents, and Lemke's basis keeps only some of them); a box row inside its
     bounds holds, at a bound it is fixed there. False if some friction group was at its
-    bound (a sliding contact): the guess cannot express it."""
+    bound (a sliding contact): the guess cannot express it. ``load`` (2 nrow,) zero on
+    entry: scratch for the groups' loads."""
     for a in range(nn):
         i = oth[a]
         r = idx[i]
@@ -575,6 +578,9 @@ def _guess_states(rows, idx, where, kind, oth, nn, impulse, state):
                 state[a] = _AT_LO
             else:
                 state[a] = _EQUAL
+        elif k == KIND_FRICTION:
+            # |impulse| summed over each friction pyramid (a lone row: its own slot)
+            load[_load_slot(rows, r, impulse.shape[0])] += abs(impulse[r])
     for a in range(nn):
         i = oth[a]
         if kind[i] != KIND_FRICTION:
@@ -584,16 +590,17 @@ def _guess_states(rows, idx, where, kind, oth, nn, impulse, state):
         if pn <= 0.0 or where[rows.parent[r]] < 0:
             state[a] = _ZERO
             continue
-        load = 0.0
-        for c in range(nn):
-            rc = idx[oth[c]]
-            if kind[oth[c]] == KIND_FRICTION and (rc == r or (rows.group[r] >= 0
-                                                              and rows.group[rc] == rows.group[r])):
-                load += abs(impulse[rc])          # (impulse is indexed by row, not by oth)
-        if load >= rows.mu[r] * pn * (1.0 - 1e-9):
+        if load[_load_slot(rows, r, impulse.shape[0])] >= rows.mu[r] * pn * (1.0 - 1e-9):
             return False
         state[a] = _EQUAL if impulse[r] != 0.0 else _ZERO
     return True
+
+
+@njit(cache=True, inline="always")
+def _load_slot(rows, r, nrow):
+    """Friction row ``r``'s slot in a groups' load array (2 nrow,): its group's, or its
+    own past ``nrow`` when it has none."""
+    return rows.group[r] if rows.group[r] >= 0 else nrow + r
 
 
 @noalloc
