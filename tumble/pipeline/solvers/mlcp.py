@@ -19,15 +19,18 @@ Lemke's answer is exact up to round-off (see ``lemke.py``); the caller falls bac
 PGS when Lemke reports failure, which it never hides.
 
 When the bilateral rows form a tree (a character's joints) they are factorised in linear
-time (``tree.py``), the plan of that factorisation is kept across steps (``PlanCache``),
-and ``S`` comes from the constrained inverse mass of the few bodies the other rows
-touch (``tree_body_inverse``): one 6x6 block per pair of those bodies instead of a path
-per pair of rows. Before any pivoting, last step's contact state is tried as it stands
-(``_guessed_active_set``): pushing contacts sticking, the others apart. Solved with the
-Cholesky factor of ``S`` on those rows, that is the LCP's answer whenever it passes the
-complementarity checks, which is what a resting or walking character mostly meets; a
-few primal-dual corrections handle contacts that come or go, and anything else (a
-sliding contact, redundant contacts) goes to Lemke.
+time (``tree.py``) and the plan of that factorisation is kept across steps
+(``PlanCache``). Before any pivoting, last step's contact state is tried as it stands
+(``_guess_on_tree``): pushing contacts sticking, the others apart, ``S`` made only for
+the rows it holds, from one column of the tree's factor per row, and the velocities
+from one forward and one back substitution. Solved with the Cholesky factor of that
+``S``, it is the LCP's answer whenever every other row passes the complementarity
+checks, which is what a resting or walking character mostly meets. Otherwise ``S`` for
+every row comes from the constrained inverse mass of the few bodies they touch
+(``tree_body_inverse``: one 6x6 block per pair of those bodies instead of a path per
+pair of rows), a few primal-dual corrections handle contacts that come or go
+(``_guessed_active_set``), and anything else (a sliding contact, redundant contacts)
+goes to Lemke.
 """
 import numpy as np
 from numba import njit
@@ -142,13 +145,13 @@ def _mlcp_tree(rows, nrow, idx, where, n, kind, bil, nb, oth, nn, bsel, plan, in
                inv_inertia, vel, angvel, impulse, max_pivots):
     """The mixed LCP with the bilateral rows factorised over their tree (``plan``).
 
-    One tree solve gives the bilateral rows' response to the current velocities
-    (``u0``, and ``c = b_N - J_N u0``); ``S`` is assembled from the 6x6 blocks of the
-    constrained inverse mass of the bodies the other rows touch; after the LCP a second
-    tree solve adds the response to its impulses ``p_N`` (``u1``), so the bodies'
-    velocities change by ``u0 + u1`` and no row's response needs applying one by one.
     Last step's contact state is tried first on the rows it holds alone
-    (``_guess_on_tree``); only if that fails is ``S`` made for every row."""
+    (``_guess_on_tree``). Only if that fails: one tree solve gives the bilateral rows'
+    response to the current velocities (``u0``, and ``c = b_N - J_N u0``), ``S`` is
+    assembled from the 6x6 blocks of the constrained inverse mass of the bodies the
+    other rows touch, and after the LCP a second tree solve adds the response to its
+    impulses ``p_N`` (``u1``), so the bodies' velocities change by ``u0 + u1`` and no
+    row's response needs applying one by one."""
     nbody = vel.shape[0]
     b = np.empty(n)
     for i in range(n):

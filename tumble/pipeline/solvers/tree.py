@@ -468,18 +468,22 @@ def tree_load(plan, nbody, f, with_f, g):
 def tree_forward(plan, nbody):
     """Forward substitution, children first: ``z_u <- L_u^-1 z_u``,
     ``z_parent -= s_u W_u^T z_u``."""
-    z, fac, dim, wm, dinv = plan.z, plan.fac, plan.dim, plan.wmat, plan.dinv
     for t in range(plan.meta[1] - 1, -1, -1):
         u = plan.order[t]
-        d = dim[u]
-        if d == 0:
-            continue
-        zu, a, dv, w, dp, zp = _node_views(plan, u, d, z, fac, dinv, wm)
-        sign = 1.0 if u < nbody else -1.0
-        if d == 6 and dp == 6:
-            _forward_node(zu, 6, a, dv, w, 6, zp, sign)
-        else:
-            _forward_node(zu, d, a, dv, w, dp, zp, sign)
+        if plan.dim[u] > 0:
+            _forward_at(plan, u, nbody, plan.z)
+
+
+@njit(cache=True, inline="always")
+def _forward_at(plan, u, nbody, z):
+    """``_forward_node`` at node ``u`` (dim > 0) on ``z``: the plan's vector or a column."""
+    d = plan.dim[u]
+    zu, a, dv, w, dp, zp = _node_views(plan, u, d, z, plan.fac, plan.dinv, plan.wmat)
+    sign = 1.0 if u < nbody else -1.0
+    if d == 6 and dp == 6:
+        _forward_node(zu, 6, a, dv, w, 6, zp, sign)
+    else:
+        _forward_node(zu, d, a, dv, w, dp, zp, sign)
 
 
 @noalloc
@@ -533,7 +537,6 @@ def tree_row_columns(plan, nbody, rows, rsel, ns, H, member, path, plen):
     path (ns, nbody + rows) int64 out: the nodes of each column, children first;
     plen (ns,) int64 out: their number."""
     dim, zoff, opos = plan.dim, plan.z_off, plan.opos
-    fac, wm, dinv = plan.fac, plan.wmat, plan.dinv
     for t in range(ns):
         r = rsel[t]
         n = np.int64(0)
@@ -556,16 +559,8 @@ def tree_row_columns(plan, nbody, rows, rsel, ns, H, member, path, plen):
                 n += 1
                 u = plan.eparent[u]
         plen[t] = n
-        h = H[t]
         for q in range(n):
-            u = path[t, q]
-            d = dim[u]
-            hu, a, dv, w, dp, hp = _node_views(plan, u, d, h, fac, dinv, wm)
-            sign = 1.0 if u < nbody else -1.0
-            if d == 6 and dp == 6:
-                _forward_node(hu, 6, a, dv, w, 6, hp, sign)
-            else:
-                _forward_node(hu, d, a, dv, w, dp, hp, sign)
+            _forward_at(plan, path[t, q], nbody, H[t])
 
 
 @noalloc
