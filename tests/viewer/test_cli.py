@@ -86,7 +86,8 @@ def test_record_and_export_commands(tmp_path, capsys):
 def test_view_serves_the_page_until_interrupted(tmp_path):
     pytest.importorskip("viser")
     rec = synthetic_recording().save(tmp_path / "r.npz")
-    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""),
+               PYTHONFAULTHANDLER="1")
     proc = subprocess.Popen([sys.executable, "-m", "tumble", "view", rec, "--port", "0"],
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                             env=env, cwd=ROOT)
@@ -100,7 +101,15 @@ def test_view_serves_the_page_until_interrupted(tmp_path):
         with urllib.request.urlopen(url, timeout=10) as page:
             assert page.status == 200 and b"<html" in page.read().lower()
         proc.send_signal(signal.SIGINT)
-        assert proc.wait(timeout=20) == 0
+        try:
+            code = proc.wait(timeout=60)
+        except subprocess.TimeoutExpired:
+            # say where it hangs: SIGABRT makes faulthandler print every thread's stack
+            proc.send_signal(signal.SIGABRT)
+            proc.wait(timeout=10)
+            raise AssertionError("tumble view did not stop on Ctrl-C within 60 s; it printed:\n"
+                                 + proc.stdout.read())
+        assert code == 0, proc.stdout.read()
     finally:
         if proc.poll() is None:
             proc.kill()
