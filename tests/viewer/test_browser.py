@@ -133,6 +133,10 @@ def test_the_camera_follows_the_centre_of_mass(replay):
     offset = cam.position - cam.look_at
     page.page.get_by_role("combobox").last.click()             # the Follow dropdown
     page.page.get_by_role("option", name="centre of mass").click()
+    deadline = time.monotonic() + 20          # the choice reaches the server asynchronously
+    while viewer.follow != "com" and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert viewer.follow == "com"
     for i in (5, len(rec) - 1):
         viewer.seek(i)
         np.testing.assert_allclose(cam.look_at, rec.scene.com(rec.body_pos[i]), atol=1e-9)

@@ -88,9 +88,12 @@ def test_view_serves_the_page_until_interrupted(tmp_path):
     rec = synthetic_recording().save(tmp_path / "r.npz")
     env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""),
                PYTHONFAULTHANDLER="1")
+    # a test run started in the background of a script ignores SIGINT, and a child that
+    # inherits SIG_IGN never gets Python's KeyboardInterrupt: give it the default back
     proc = subprocess.Popen([sys.executable, "-m", "tumble", "view", rec, "--port", "0"],
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                            env=env, cwd=ROOT)
+                            env=env, cwd=ROOT,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     try:
         url = None
         for line in proc.stdout:
