@@ -337,11 +337,7 @@ class World:
         if self.parallel or not pipeline_step.step_checked.overloads:
             return
         options = self._options()
-        args = (self.model.arrays, self._state, self._contacts, options)
-        make = _entry_point(pipeline_step.make_step_work, args, compiled_only=True)
-        if make is None:
-            return
-        work = make(*args)
+        work = self._make_work(options)
         entry = _entry_point(pipeline_step.step_checked,
                              (self.model.arrays, self._state, self._contacts, self._pairs, 1,
                               options, self._ball_joints, work), compiled_only=True)
@@ -646,6 +642,13 @@ class World:
                 body=self.model.body_names[b], step=int(k), time=t, world=int(w))
         self.time += n * self.dt
 
+    def _make_work(self, options):
+        """The serial step's scratch memory (``step.make_step_work``), through its compiled
+        entry point once there is one."""
+        args = (self.model.arrays, self._state, self._contacts, options)
+        make = _entry_point(pipeline_step.make_step_work, args, compiled_only=True)
+        return (make or pipeline_step.make_step_work)(*args)
+
     def _step_serial(self, n, options):
         """Checks, the step and its retries in compiled code (``step.step_checked``), called
         straight through its compiled entry point once known: Numba's dispatcher would
@@ -654,9 +657,7 @@ class World:
         s = self._state
         while True:
             if self._work is None:
-                margs = (self.model.arrays, s, self._contacts, options)
-                make = _entry_point(pipeline_step.make_step_work, margs, compiled_only=True)
-                self._work = (make or pipeline_step.make_step_work)(*margs)
+                self._work = self._make_work(options)
             args = (self.model.arrays, s, self._contacts, self._pairs, n, options,
                     self._ball_joints, self._work)
             if self._entry is None:
