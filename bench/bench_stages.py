@@ -202,8 +202,9 @@ def profiled_steps(m, s, con, pairs, n, o, t_stage, t_part, counts):
             t_stage[6] += t1 - t0
             if njrow > 0:
                 s.row_impulse[w] = imp[:njrow]
-                joint_reactions(m, pos, quat, rows, s.row_impulse[w], h, s.joint_force[w],
-                                s.joint_torque[w])
+                if k == n - 1:
+                    joint_reactions(m, pos, quat, rows, s.row_impulse[w], h, s.joint_force[w],
+                                    s.joint_torque[w])
             if nrow > nfix:
                 store_contact_impulses(cw, ncon, nfix, nper, imp)
             t0 = _now(buf)

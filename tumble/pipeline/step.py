@@ -9,7 +9,7 @@
     actuators.body_servo_rows       implicit PD rows pulling bodies to targets (hand of god)
     contacts.rows                   normal, friction (and spin-friction) rows of every contact
     solvers.direct / solvers.pgs    impulses that satisfy the rows; constrained velocities
-    joints.rows.joint_reactions     each joint's force and torque on its child
+    joints.rows.joint_reactions     each joint's force and torque on its child (last step)
     integrate.integrate_positions   positions and orientations with the new velocities
     stabilize.project_joints        joints projected back together (positions only)
     integrate.first_bad_body        divergence check
@@ -488,8 +488,9 @@ def step_worlds(m, s, con, pairs, n, o, work):
                                                  angvel, imp, o, caches)
                 if njrow > 0:
                     s.row_impulse[w] = imp[:njrow]
-                    joint_reactions(m, pos, quat, rows, s.row_impulse[w], h, s.joint_force[w],
-                                    s.joint_torque[w])
+                    if k == n - 1:       # what users read is the last step's: none before it
+                        joint_reactions(m, pos, quat, rows, s.row_impulse[w], h,
+                                        s.joint_force[w], s.joint_torque[w])
                 if nrow > nfix:
                     store_contact_impulses(cw, ncon, nfix, nper, imp)
             integrate_positions(m, pos, quat, vel, angvel, h, o.quat_integration)

@@ -68,9 +68,18 @@ def set_row(rows, r, a, b, lin_a, ang_a, lin_b, ang_b, rhs, cfm, lo, hi):
 
 @njit(cache=True, inline="always")
 def clear_row(rows, r, a, b):
-    """An inactive row (an unreached limit, a motor switched off): no effect, zero impulse."""
-    z = (0.0, 0.0, 0.0)
-    set_row(rows, r, a, b, z, z, z, z, 0.0, 0.0, 0.0, 0.0)
+    """An inactive row (an unreached limit, a motor switched off): no effect, zero impulse.
+
+    Only what marks it inactive is written (``lo == hi == 0``, no friction parent: see
+    ``solvers.common.row_active``): every solver skips such a row and zeroes its impulse,
+    so its Jacobian is never read but times that zero (``joint_reactions``)."""
+    rows.body_a[r] = a
+    rows.body_b[r] = b
+    rows.rhs[r] = 0.0
+    rows.cfm[r] = 0.0
+    rows.lo[r] = 0.0
+    rows.hi[r] = 0.0
+    rows.parent[r] = -1
 
 
 @njit(cache=True, inline="always")
