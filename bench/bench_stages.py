@@ -49,6 +49,7 @@ from tumble.pipeline.joints.servo import JointDrive  # noqa: E402
 from tumble.pipeline.solvers.common import (make_rows_nb, row_active,  # noqa: E402
                                             world_inverse_inertia)
 from tumble.pipeline.solvers.direct import assemble  # noqa: E402
+from tumble.pipeline.solvers.mlcp import make_fast_scratch  # noqa: E402
 from tumble.pipeline.stabilize import project_joints, projection_setup  # noqa: E402
 
 _libc = ctypes.CDLL(ctypes.util.find_library("c"))
@@ -117,6 +118,7 @@ def profiled_steps(m, s, con, pairs, n, o, t_stage, t_part, counts):
     angvel_pred = np.empty((nb, 3))
     projection = projection_setup(m, rows, nb, njrow > 0 and o.projection > 0)
     caches = P.make_solver_caches(m, servoed, nb)
+    fast = make_fast_scratch(ncap, nb, caches[1])
     has_servo = np.any(s.pd_kp > 0.0) or np.any(s.pd_kd > 0.0)
     has_drives = m.act_joint.shape[0] > 0 or np.any(s.joint_applied != 0.0) or (
         o.pd_mode == PD_EXPLICIT and has_servo)
@@ -196,8 +198,10 @@ def profiled_steps(m, s, con, pairs, n, o, t_stage, t_part, counts):
                 if row_active(rows, r):
                     counts[3] += 1
             t0 = _now(buf)
-            s.lcp_fallbacks[w] += P.solve_rows(m, rows, nrow, nfix, ncon, inv_inertia, vel,
-                                               angvel, imp, o, caches)
+            if not P.solve_fast(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o, caches,
+                                fast):
+                s.lcp_fallbacks[w] += P.solve_rows(m, rows, nrow, nfix, ncon, inv_inertia, vel,
+                                                   angvel, imp, o, caches)
             t1 = _now(buf)
             t_stage[6] += t1 - t0
             if njrow > 0:

@@ -39,7 +39,7 @@ from .joints.rows import build_joint_rows, joint_coordinates, joint_reactions
 from .joints.servo import JointDrive
 from .solvers.common import make_rows_nb, world_inverse_inertia
 from .solvers.direct import solve_direct
-from .solvers.mlcp import solve_mlcp
+from .solvers.mlcp import FAST_SOLVED, guess_on_tree_fast, make_fast_scratch, solve_mlcp
 from .solvers.pgs import solve_pgs
 from .solvers.tree import make_plan_cache, plan_capacity
 from .stabilize import project_joints, projection_setup
@@ -256,6 +256,17 @@ def solve_rows(m, rows, nrow, njrow, ncon, inv_inertia, vel, angvel, imp, o, cac
     return 0
 
 
+@noalloc
+def solve_fast(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o, caches, fast):
+    """``solve_rows``'s most common case, a character standing or walking on an exact (LCP)
+    contact model, without allocating or reference counting (``mlcp.guess_on_tree_fast``).
+    True when it solved the rows; False leaves everything to ``solve_rows``."""
+    if o.contact != CONTACT_LCP or ncon == 0:
+        return False
+    return guess_on_tree_fast(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp,
+                              caches[1], fast) == FAST_SOLVED
+
+
 @njit(cache=True)
 def make_solver_caches(m, servoed, nbody):
     """Tree-plan caches of the direct solver and of the mixed LCP for one ``step`` call:
@@ -280,6 +291,7 @@ StepWork = namedtuple("StepWork", [
     "servoed",      # (ns,) int64 bodies with a body servo (6 rows each after the joints')
     "projection",   # stabilize.projection_setup
     "caches",       # (direct, mlcp) tree-plan caches (make_solver_caches)
+    "fast",         # mlcp.FastScratch: the mixed LCP's common case without allocating
 ])
 
 
@@ -296,11 +308,12 @@ def make_step_work(m, s, con, o):
     rows = make_rows_nb(ncap)
     project = njrow > 0 and o.projection > 0
     key = np.array([cap, ncap, 1 if project else 0, nper], np.int64)
+    caches = make_solver_caches(m, servoed, nb)
     return StepWork(key, np.empty((nb, 3)), np.empty((nb, 3)), np.zeros((nb, 3, 3)), rows,
                     np.zeros(ncap), np.zeros((ng, 3)), np.zeros((ng, 4)), np.zeros((ng, 3)),
                     np.zeros((ng, 3)), make_contacts_nb(cap), np.empty((nb, 3)),
                     np.empty((nb, 3)), servoed, projection_setup(m, rows, nb, project),
-                    make_solver_caches(m, servoed, nb))
+                    caches, make_fast_scratch(ncap, nb, caches[1]))
 
 
 @njit(cache=True, inline="always")
@@ -484,8 +497,10 @@ def step_worlds(m, s, con, pairs, n, o, work):
                                        o.contact_erp, o.contact_cfm, o.slop,
                                        o.bounce_threshold, rows, imp)
                 world_inverse_inertia(m, quat, inv_inertia)
-                s.lcp_fallbacks[w] += solve_rows(m, rows, nrow, nfix, ncon, inv_inertia, vel,
-                                                 angvel, imp, o, caches)
+                if not solve_fast(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o,
+                                  caches, work.fast):
+                    s.lcp_fallbacks[w] += solve_rows(m, rows, nrow, nfix, ncon, inv_inertia, vel,
+                                                     angvel, imp, o, caches)
                 if njrow > 0:
                     s.row_impulse[w] = imp[:njrow]
                     if k == n - 1:       # what users read is the last step's: none before it

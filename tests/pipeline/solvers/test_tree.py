@@ -19,7 +19,8 @@ from tumble.pipeline.joints.rows import build_joint_rows
 from tumble.pipeline.joints.servo import JointDrive
 from tumble.pipeline.solvers.common import make_rows_nb, world_inverse_inertia
 from tumble.pipeline.solvers.direct import solve_active_set
-from tumble.pipeline.solvers.mlcp import mixed_lcp
+from tumble.pipeline.solvers.mlcp import (FAST_NOT_HANDLED, FAST_SOLVED, guess_on_tree_fast,
+                                         make_fast_scratch, mixed_lcp, solve_mlcp)
 from tumble.pipeline.solvers.tree import (cached_tree_plan, make_plan_cache, plan_capacity,
                                          tree_body_inverse, tree_factor, tree_plan, tree_solve)
 
@@ -317,6 +318,90 @@ def test_tree_on_a_free_box_matches_dense():
     assert seen > 0
 
 
+def fast_and_full(world, cache, fast):
+    """The mixed LCP of the world's current rows and contacts by the allocation-free fast
+    path (``guess_on_tree_fast``) and by ``solve_mlcp``, both on the plan kept in
+    ``cache``: (fast status, (impulses, vel, angvel) of each, the inputs). Where Lemke
+    fails (the caller's PGS then stands in) the fast path must have declined."""
+    rows, nrow, im, ii, vel, angvel, imp0 = scene_rows(world, contacts=True)
+    out = []
+    v, w, imp = vel.copy(), angvel.copy(), imp0.copy()
+    status = guess_on_tree_fast(rows, nrow, im, ii, v, w, imp, cache, fast)
+    out.append((imp, v, w))
+    v, w, imp = vel.copy(), angvel.copy(), imp0.copy()
+    full = solve_mlcp(rows, nrow, im, ii, v, w, imp, 0, cache)
+    assert full == 0 or status == FAST_NOT_HANDLED
+    out.append((imp, v, w))
+    return status, out, (imp0, vel, angvel)
+
+
+def check_fast_path(world, steps, every):
+    """Step ``world``; every ``every`` steps the fast path either solves exactly as
+    ``solve_mlcp`` does (bit for bit: the same kernels in the same order) or declines and
+    leaves its inputs untouched. Returns how many times it solved and was tried."""
+    m = world.model
+    cache = pipeline_step.make_solver_caches(m.arrays, np.zeros(0, np.int64), m.nbody)[1]
+    fast = make_fast_scratch(m.nrow + 3 * world._contacts.depth.shape[1], m.nbody, cache)
+    solved = tried = 0
+    for _ in range(steps // every):
+        world.step(every)
+        if world._state.contact_count[0] == 0:
+            continue
+        status, (got, want), inputs = fast_and_full(world, cache, fast)
+        tried += 1
+        if status == FAST_SOLVED:
+            solved += 1
+            for a, b in zip(got, want):
+                np.testing.assert_array_equal(a, b)
+        else:
+            for a, b in zip(got, inputs):
+                np.testing.assert_array_equal(a, b)
+    return solved, tried
+
+
+def test_fast_path_solves_the_standing_pd_ragdoll_as_solve_mlcp_does():
+    """The benchmark's PD ragdoll at 60 Hz (implicit servos: every joint a six-row node)
+    falls, lands and stands: once its plan is kept, the fast path takes nearly every step."""
+    from bench.bench_tumble import make_world
+    world = make_world(tumble_scenes.build("ragdoll60pd"), "implicit-pd", "ragdoll60pd")
+    solved, tried = check_fast_path(world, 150, 3)
+    assert tried == 50
+    assert solved >= 45                     # the first call only plans; landing may decline
+
+
+def test_fast_path_declines_what_it_cannot_guess():
+    """Jointed boxes on a free box that starts sliding: a sliding contact, then four
+    coplanar contacts per box whose held rows are dependent (Lemke picks the basis). The
+    fast path declines those steps and leaves its inputs as they were; whatever it does
+    solve it solves as ``solve_mlcp`` does."""
+    b = tumble.ModelBuilder()
+    b.add_geom(None, "plane", friction=0.9)
+    b.add_body("base", pos=(0, 0, 0.1), mass=5.0, vel=(0.5, 0, 0))
+    b.add_geom("base", "box", size=(0.6, 0.3, 0.1), friction=0.9)
+    for i, x in enumerate((-0.2, 0.2)):
+        b.add_body(f"l{i}", pos=(x, 0, 0.25), mass=1.0)
+        b.add_geom(f"l{i}", "box", size=(0.2, 0.05, 0.05), friction=0.9)
+    b.add_joint("hinge", "hinge", "l0", "l1", anchor=(0, 0, 0.25), axis=(0, 1, 0))
+    world = tumble.World(b.build(), dt=1 / 120)
+    solved, tried = check_fast_path(world, 60, 2)
+    assert tried == 30 and solved < tried
+
+
+def test_fast_path_declines_without_a_kept_plan():
+    """A cache that never planned these rows: the fast path leaves everything to
+    ``solve_mlcp`` (which plans), then takes the next call."""
+    world = tumble.World(tumble_scenes.ragdoll(600))
+    world.step(300)
+    m = world.model
+    cache = pipeline_step.make_solver_caches(m.arrays, np.zeros(0, np.int64), m.nbody)[1]
+    fast = make_fast_scratch(m.nrow + 3 * world._contacts.depth.shape[1], m.nbody, cache)
+    status, (got, _), inputs = fast_and_full(world, cache, fast)
+    assert status == FAST_NOT_HANDLED
+    for a, b in zip(got, inputs):
+        np.testing.assert_array_equal(a, b)
+    assert fast_and_full(world, cache, fast)[0] == FAST_SOLVED
+
+
 @FAST
 @given(seed=st.integers(0, 2**32 - 1), nb=st.integers(2, 10), extra=st.integers(0, 3),
        shape=st.sampled_from(["hanging", "forest", "floating"]))
@@ -466,6 +551,14 @@ def contact_problem(rng, ncontact, nbox, nbody):
     return rows, n, S, c
 
 
+def classified(ML, rows, n):
+    """(idx, where, kind, oth) of contact rows that are all active and none bilateral."""
+    ints = np.zeros((6, n), np.int64)
+    assert ML._sort_rows(rows, n, *ints) == (n, 0)
+    np.testing.assert_array_equal(ints[0], np.arange(n))
+    return ints[0], ints[1], ints[2], ints[4]
+
+
 @FAST
 @given(seed=st.integers(0, 2**32 - 1), ncontact=st.integers(1, 6), nbox=st.integers(0, 2),
        nbody=st.integers(1, 3), guess=st.sampled_from(["right", "perturbed", "zero", "random"]))
@@ -478,10 +571,7 @@ def test_guessed_active_set_solves_the_lcp(seed, ncontact, nbox, nbody, guess):
     from tumble.pipeline.solvers import mlcp as ML
     rng = np.random.default_rng(seed)
     rows, n, S, c = contact_problem(rng, ncontact, nbox, nbody)
-    idx, where = np.arange(n), np.arange(n)
-    oth = np.arange(n)
-    kind = np.zeros(n, np.int64)
-    assert ML._classify(rows, idx, n, kind) == 0
+    idx, where, kind, oth = classified(ML, rows, n)
     scale = np.abs(c).max() + np.abs(S).max()
     p_ref = np.zeros(n)
     status = ML._pyramid_lcp(rows, idx, where, kind, oth, n, S, c, np.zeros(n), 0, False, p_ref)
@@ -512,9 +602,7 @@ def test_right_guess_skips_lemke():
     took = sliding = 0
     for _ in range(40):
         rows, n, S, c = contact_problem(rng, 2, 1, 3)
-        idx = where = oth = np.arange(n)
-        kind = np.zeros(n, np.int64)
-        ML._classify(rows, idx, n, kind)
+        idx, where, kind, oth = classified(ML, rows, n)
         p_ref = np.zeros(n)
         assert ML._pyramid_lcp(rows, idx, where, kind, oth, n, S, c, np.zeros(n), 0, False,
                                p_ref) == 0

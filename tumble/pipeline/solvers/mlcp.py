@@ -32,15 +32,18 @@ pair of rows), a few primal-dual corrections handle contacts that come or go
 (``_guessed_active_set``), and anything else (a sliding contact, redundant contacts)
 goes to Lemke.
 """
+from collections import namedtuple
+
 import numpy as np
 from numba import njit
 
 from ..._jit import noalloc
 from ..joints.common import INF
-from .common import active_rows, apply_impulses, minv_jt, row_velocity
+from .common import apply_impulses, minv_jt, row_velocity
 from .direct import assemble, cholesky_apply, cholesky_factor, row_dot
 from .lemke import LEMKE_INACCURATE, LEMKE_SOLVED, VERIFY_TOL as _VERIFY_TOL, lemke, lemke_warm
-from .tree import (cached_tree_plan, make_plan_cache, tree_add_columns, tree_backward,
+from .tree import (cached_tree_plan, make_plan_cache, plan_kept as _plan_kept, tree_add_columns,
+                   tree_backward,
                    tree_body_inverse, tree_column_dot, tree_factor, tree_forward, tree_load,
                    tree_row_columns, tree_solve, tree_unload)
 
@@ -83,29 +86,15 @@ def mixed_lcp(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, max_pivot
 def mixed_lcp_cached(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, max_pivots,
                      allow_tree, cache):
     """``mixed_lcp`` with the tree plan kept in ``cache``."""
-    idx = np.empty(nrow, np.int64)
-    where = np.empty(nrow, np.int64)             # row -> position among active rows
-    # (the impulses stay as they came until Lemke has solved: a scratch copy is zeroed)
-    n = active_rows(rows, nrow, idx, where, np.empty(nrow))
+    ints = np.empty(6 * nrow, np.int64)
+    idx, where, kind = ints[:nrow], ints[nrow:2 * nrow], ints[2 * nrow:3 * nrow]
+    bil, oth, bsel = ints[3 * nrow:4 * nrow], ints[4 * nrow:5 * nrow], ints[5 * nrow:]
+    # (the impulses stay as they came until Lemke has solved: none is zeroed here)
+    n, nb = _sort_rows(rows, nrow, idx, where, kind, bil, oth, bsel)
     if n == 0:
         return LEMKE_SOLVED
     nbody = vel.shape[0]
-    kind = np.empty(n, np.int64)
-    nb = _classify(rows, idx, n, kind)
-    bil = np.empty(nb, np.int64)
-    oth = np.empty(n - nb, np.int64)
-    k1 = k2 = 0
-    for i in range(n):
-        if kind[i] == KIND_BILATERAL:
-            bil[k1] = i
-            k1 += 1
-        else:
-            oth[k2] = i
-            k2 += 1
     nn = n - nb
-    bsel = np.empty(nb, np.int64)
-    for u in range(nb):
-        bsel[u] = idx[bil[u]]
     if allow_tree and nb > 0:
         ok, plan = cached_tree_plan(cache, rows, bsel, nb, inv_mass, nbody)
         if ok:
@@ -120,22 +109,122 @@ def mixed_lcp_cached(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, ma
                        inv_inertia, vel, angvel, impulse, max_pivots)
 
 
+# Scratch of ``guess_on_tree_fast`` for rows of a given capacity (``make_fast_scratch``).
+FastScratch = namedtuple("FastScratch", [
+    "ints",     # (8 rows,) int64: idx, where, kind, bil, oth, bsel, state, sub
+    "floats",   # (7 rows + 6 nbody,) load (2 rows), cfm, p, b, g, y (rows each), vn (nbody, 6)
+    "guess",    # GuessScratch for up to FAST_HELD held rows
+])
+# Held rows the fast path has room for; a step holding more takes the allocating path.
+FAST_HELD = 48
+
+
+@njit(cache=True)
+def make_fast_scratch(nrow, nbody, cache):
+    """Scratch for ``guess_on_tree_fast`` on rows of capacity ``nrow`` and ``cache``'s plan."""
+    return FastScratch(np.zeros(8 * max(nrow, 1), np.int64), np.zeros(7 * max(nrow, 1) + 6 * nbody),
+                       make_guess_scratch(np.int64(FAST_HELD), nbody, cache.plan))
+
+
+# What guess_on_tree_fast reports.
+FAST_SOLVED, FAST_NOT_HANDLED = 0, 1
+
+
 @noalloc
-def _classify(rows, idx, n, kind):
-    """Kind of each active row into ``kind`` (n,); returns the number of bilateral rows."""
-    nb = np.int64(0)                 # not a literal: one compilation of its callees
+def guess_on_tree_fast(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, cache, fs):
+    """``solve_mlcp``'s common case without allocating (so without reference counting):
+    the bilateral rows have a tree plan in ``cache`` already, it factorises, and last
+    step's contact state solves the LCP (``_guess_on_tree``). Returns FAST_SOLVED with the
+    impulses and velocities applied as ``solve_mlcp`` would, or FAST_NOT_HANDLED with
+    ``vel``, ``angvel`` and ``impulse`` untouched (then call ``solve_mlcp``, which redoes
+    the factorisation). ``fs``: ``make_fast_scratch`` for rows of capacity >= nrow."""
+    nload = 2 * impulse.shape[0]            # _guess_states' slots: two per row of capacity
+    if nrow == 0 or fs.ints.shape[0] < 8 * nrow or \
+            fs.floats.shape[0] < nload + 5 * nrow + 6 * vel.shape[0]:
+        return FAST_NOT_HANDLED
+    ints = fs.ints
+    idx, where, kind = ints[:nrow], ints[nrow:2 * nrow], ints[2 * nrow:3 * nrow]
+    bil, oth, bsel = ints[3 * nrow:4 * nrow], ints[4 * nrow:5 * nrow], ints[5 * nrow:6 * nrow]
+    n, nb = _sort_rows(rows, nrow, idx, where, kind, bil, oth, bsel)
+    if n == 0 or nb == 0:
+        return FAST_NOT_HANDLED
+    nbody = vel.shape[0]
+    plan = cache.plan
+    if not _plan_kept(cache, rows, bsel, nb):
+        return FAST_NOT_HANDLED
+    nn = n - nb
+    fl = fs.floats
+    load, rest = fl[:nload], fl[nload:]
+    # each as long as in _mlcp_tree: the tree kernels read y's length
+    cfm, p_n, b = rest[:nb], rest[nrow:nrow + nn], rest[2 * nrow:2 * nrow + n]
+    g, y = rest[3 * nrow:3 * nrow + nb], rest[4 * nrow:4 * nrow + nb]
+    vn = rest[5 * nrow:5 * nrow + 6 * nbody].reshape((nbody, 6))
+    for u in range(nb):
+        cfm[u] = rows.cfm[bsel[u]]
+        plan.use[u] = 1
+    if not tree_factor(plan, rows, bsel, cfm, inv_mass, inv_inertia, nbody):
+        return FAST_NOT_HANDLED
+    for i in range(nload):
+        load[i] = 0.0
     for i in range(n):
-        r = idx[i]
+        b[i] = rows.rhs[idx[i]] - row_velocity(rows, idx[i], vel, angvel)
+    for u in range(nb):
+        g[u] = b[bil[u]]
+    state, sub = ints[6 * nrow:6 * nrow + nn], ints[7 * nrow:7 * nrow + nn]
+    for a in range(nn):
+        state[a] = 0
+        p_n[a] = 0.0
+    if not _guess_states(rows, idx, where, kind, oth, nn, impulse, state, load):
+        return FAST_NOT_HANDLED
+    ns = np.int64(0)
+    for a in range(nn):
+        if state[a] != _ZERO:
+            sub[ns] = a
+            ns += 1
+    if ns > fs.guess.rsel.shape[0]:
+        return FAST_NOT_HANDLED
+    if not _guess_on_tree(rows, idx, where, kind, oth, nn, sub, ns, state, b, g, plan,
+                          inv_mass, inv_inertia, vel, angvel, p_n, vn, y, fs.guess):
+        return FAST_NOT_HANDLED
+    _finish(rows, nrow, idx, oth, nn, bsel, nb, y, p_n, vn, vel, angvel, impulse)
+    return FAST_SOLVED
+
+
+@noalloc
+def _sort_rows(rows, nrow, idx, where, kind, bil, oth, bsel):
+    """One pass over the rows: the active ones (``solvers.common.row_active``) into
+    ``idx``, their position among them into ``where`` (-1: inactive), their kind into
+    ``kind``, the positions of the bilateral ones into ``bil`` and of the others into
+    ``oth``, and the bilateral rows themselves into ``bsel``. All (nrow,) int64.
+    Returns (active rows, bilateral rows)."""
+    n = np.int64(0)
+    nb = np.int64(0)
+    no = np.int64(0)
+    for r in range(nrow):
+        lo, hi = rows.lo[r], rows.hi[r]
         if rows.parent[r] >= 0:
-            kind[i] = KIND_FRICTION
-        elif rows.lo[r] <= -_BIG and rows.hi[r] >= _BIG:
-            kind[i] = KIND_BILATERAL
-            nb += 1
-        elif rows.lo[r] == 0.0 and rows.hi[r] >= _BIG:
-            kind[i] = KIND_UNILATERAL
+            k = KIND_FRICTION
+        elif lo == 0.0 and hi == 0.0:
+            where[r] = -1
+            continue
+        elif lo <= -_BIG and hi >= _BIG:
+            k = KIND_BILATERAL
+        elif lo == 0.0 and hi >= _BIG:
+            k = KIND_UNILATERAL
         else:
-            kind[i] = KIND_BOX
-    return nb
+            k = KIND_BOX
+        idx[n] = r
+        where[r] = n
+        kind[n] = k
+        if k == KIND_BILATERAL:
+            bil[nb] = n
+            bsel[nb] = r
+            nb += 1
+        else:
+            oth[no] = n
+            no += 1
+        n += 1
+    return n, nb
 
 
 # ------------------------------------------------------------------- the tree path
@@ -153,27 +242,31 @@ def _mlcp_tree(rows, nrow, idx, where, n, kind, bil, nb, oth, nn, bsel, plan, in
     impulses ``p_N`` (``u1``), so the bodies' velocities change by ``u0 + u1`` and no
     row's response needs applying one by one."""
     nbody = vel.shape[0]
-    b = np.empty(n)
+    nload = 2 * impulse.shape[0]
+    # one zeroed block for the vectors below (few allocations: each costs about as much
+    # as the arithmetic of a small one)
+    floats = np.zeros(nload + nn + n + 2 * nb + 6 * nbody)
+    load, p_n = floats[:nload], floats[nload:nload + nn]
+    o = nload + nn
+    b, g, y = floats[o:o + n], floats[o + n:o + n + nb], floats[o + n + nb:o + n + 2 * nb]
+    o += n + 2 * nb
+    vn = floats[o:o + 6 * nbody].reshape((nbody, 6))
+    ints = np.zeros(2 * nn, np.int64)
+    state, sub = ints[:nn], ints[nn:]
     for i in range(n):
         r = idx[i]
         b[i] = rows.rhs[r] - row_velocity(rows, r, vel, angvel)
-    g = np.empty(nb)
     for u in range(nb):
         g[u] = b[bil[u]]
-    state = np.zeros(nn, np.int64)
-    p_n = np.zeros(nn)
-    vn = np.empty((nbody, 6))
-    y = np.empty(nb)
-    sub = np.empty(nn, np.int64)
-    if _guess_states(rows, idx, where, kind, oth, nn, impulse, state,
-                     np.zeros(2 * impulse.shape[0])):
+    if _guess_states(rows, idx, where, kind, oth, nn, impulse, state, load):
         ns = np.int64(0)
         for a in range(nn):
             if state[a] != _ZERO:
                 sub[ns] = a
                 ns += 1
         if _guess_on_tree(rows, idx, where, kind, oth, nn, sub, ns, state, b, g, plan,
-                          inv_mass, inv_inertia, vel, angvel, p_n, vn, y):
+                          inv_mass, inv_inertia, vel, angvel, p_n, vn, y,
+                          make_guess_scratch(ns, nbody, plan)):
             _finish(rows, nrow, idx, oth, nn, bsel, nb, y, p_n, vn, vel, angvel, impulse)
             return LEMKE_SOLVED
     u0 = np.zeros((nbody, 6))
@@ -284,15 +377,43 @@ def _finish(rows, nrow, idx, oth, nn, bsel, nb, y, p_n, vn, vel, angvel, impulse
         impulse[idx[oth[c]]] = p_n[c]
 
 
+# Scratch of _guess_on_tree, for up to ``rows`` held rows (``make_guess_scratch``).
+GuessScratch = namedtuple("GuessScratch", [
+    "rsel",     # (rows,) int64 the held rows
+    "alone",    # (nbody,) bool bodies outside the tree
+    "dva",      # (rows, 12) M^-1 J^T of the rows on bodies outside the tree
+    "H",        # (rows, plan z size) the rows' columns L^-1 J^T
+    "member",   # (rows, plan nodes) bool nodes on each column's path
+    "path",     # (rows, plan nodes) int64 those nodes, children first
+    "plen",     # (rows,) int64 their number
+    "S", "mat", "fac",                 # (rows, rows) S and _solve_held's matrix and factor
+    "cvec", "rhs", "x", "pt",          # (rows,)
+    "free",     # (rows,) int64
+])
+
+
 @njit(cache=True)
+def make_guess_scratch(nheld, nbody, plan):
+    """Scratch for ``_guess_on_tree`` with up to ``nheld`` held rows on ``plan``."""
+    k = max(nheld, 1)
+    nz, nnode = plan.z.shape[0], plan.opos.shape[0]
+    return GuessScratch(np.empty(k, np.int64), np.zeros(nbody, np.bool_), np.zeros((k, 12)),
+                        np.zeros((k, nz)), np.zeros((k, nnode), np.bool_),
+                        np.empty((k, nnode), np.int64), np.empty(k, np.int64),
+                        np.empty((k, k)), np.empty((k, k)), np.empty((k, k)), np.empty(k),
+                        np.empty(k), np.empty(k), np.empty(k), np.empty(k, np.int64))
+
+
+@noalloc
 def _guess_on_tree(rows, idx, where, kind, oth, nn, sub, ns, state, b, g, plan, inv_mass,
-                   inv_inertia, vel, angvel, p, vn, y):
+                   inv_inertia, vel, angvel, p, vn, y, gs):
     """Last step's contact state (``state``, ``_guess_states``) solved with ``S`` of the
     rows it holds or fixes alone (``oth[sub[:ns]]``), and every other row checked against
     the velocities that follow: ``w = J v_new - rhs`` must not pull on a zero normal or
     limit, nor slip a zero friction row of a holding contact. True when ``p`` (nn,), the
     new velocities ``vn`` (nbody, 6) and the bilateral rows' ``y`` (nb,) solve the mixed
-    LCP; False leaves the full complement to decide.
+    LCP; False leaves the full complement to decide. ``gs`` (``make_guess_scratch``,
+    room for at least ``ns`` rows) is scratch.
 
     One pass of the tree does it all: ``[0; g]`` (``g`` the bilateral rows' right-hand
     side) is forward substituted, each held row's column ``L^-1 J^T`` is made along its
@@ -300,9 +421,17 @@ def _guess_on_tree(rows, idx, where, kind, oth, nn, sub, ns, state, b, g, plan, 
     impulses are known their columns are added and one back substitution gives the
     velocities. Bodies outside the tree answer with their own inverse mass."""
     nbody = vel.shape[0]
-    rsel = np.empty(ns, np.int64)
-    alone = np.zeros(nbody, np.bool_)
-    dva = np.zeros((ns, 12))                     # M^-1 J^T, for the bodies on their own
+    rsel, alone, dva, H, member = gs.rsel, gs.alone, gs.dva, gs.H, gs.member
+    path, plen, S, cvec = gs.path, gs.plen, gs.S, gs.cvec
+    for body in range(nbody):
+        alone[body] = False
+    for t in range(ns):
+        for k in range(12):
+            dva[t, k] = 0.0
+        for k in range(H.shape[1]):
+            H[t, k] = 0.0
+        for k in range(member.shape[1]):
+            member[t, k] = False
     for t in range(ns):
         r = idx[oth[sub[t]]]
         rsel[t] = r
@@ -311,16 +440,9 @@ def _guess_on_tree(rows, idx, where, kind, oth, nn, sub, ns, state, b, g, plan, 
             if body >= 0 and inv_mass[body] > 0.0 and plan.dim[body] != 6:
                 alone[body] = True
                 minv_jt(rows, r, inv_mass, inv_inertia, dva[t])
-    nnode = plan.opos.shape[0]
-    H = np.zeros((ns, plan.z.shape[0]))
-    member = np.zeros((ns, nnode), np.bool_)
-    path = np.empty((ns, nnode), np.int64)
-    plen = np.empty(ns, np.int64)
     tree_load(plan, nbody, vn, np.bool_(False), g)
     tree_forward(plan, nbody)
     tree_row_columns(plan, nbody, rows, rsel, ns, H, member, path, plen)
-    S = np.empty((ns, ns))
-    cvec = np.empty(ns)
     for t in range(ns):
         ra = rsel[t]
         cvec[t] = b[oth[sub[t]]] - tree_column_dot(plan, nbody, H, path, plen, t, plan.z,
@@ -340,8 +462,8 @@ def _guess_on_tree(rows, idx, where, kind, oth, nn, sub, ns, state, b, g, plan, 
             S[t, tb] = acc
             S[tb, t] = acc
         S[t, t] += rows.cfm[ra]
-    ok, pmax = _solve_held(rows, idx, oth, sub, ns, state, S, cvec, p, np.empty(ns, np.int64),
-                           np.empty((ns, ns)), np.empty((ns, ns)), np.empty(ns), np.empty(ns))
+    ok, pmax = _solve_held(rows, idx, oth, sub, ns, state, S, cvec, p, gs.free, gs.mat, gs.fac,
+                           gs.rhs, gs.x)
     if not ok:
         return False
     cmax = 1e-300
@@ -354,7 +476,7 @@ def _guess_on_tree(rows, idx, where, kind, oth, nn, sub, ns, state, b, g, plan, 
     tol_w, tol_p = _slack(_GUESS_TOL, cmax, smax, pmax)
     if not _holding_ok(rows, idx, where, kind, oth, nn, state, p, tol_p):
         return False
-    pt = np.empty(ns)
+    pt = gs.pt
     for t in range(ns):
         pt[t] = p[sub[t]]
     tree_add_columns(plan, H, path, plen, ns, pt)

@@ -659,21 +659,34 @@ def plan_capacity(joint_parent, joint_child, joint_row_count, servoed, inv_mass,
     return nrow, fac
 
 
+@noalloc
+def _same_rows(cache, rows, sel, n):
+    """Whether ``cache`` was planned for the rows ``sel[:n]`` on the same bodies."""
+    key, meta = cache.key, cache.meta
+    if meta[0] != n or n > key.shape[1]:
+        return False
+    for i in range(n):
+        r = sel[i]
+        if key[0, i] != r or key[1, i] != rows.body_a[r] or key[2, i] != rows.body_b[r]:
+            return False
+    return True
+
+
+@noalloc
+def plan_kept(cache, rows, sel, n):
+    """Whether ``cache`` holds a good plan for the rows ``sel[:n]`` already (then
+    ``cache.plan`` is the one ``cached_tree_plan`` would return)."""
+    return _same_rows(cache, rows, sel, n) and cache.meta[1] == 1
+
+
 @njit(cache=True)
 def cached_tree_plan(cache, rows, sel, n, inv_mass, nbody):
     """``tree_plan`` for the rows ``sel[:n]``, remembered in ``cache``: while the same rows
     (with the same bodies) come back, the plan is reused as it is. Returns (ok, plan): the
     cache's plan, or a fresh one when the rows do not fit in it."""
     key, meta, plan = cache.key, cache.meta, cache.plan
-    if meta[0] == n and n <= key.shape[1]:
-        same = True
-        for i in range(n):
-            r = sel[i]
-            if key[0, i] != r or key[1, i] != rows.body_a[r] or key[2, i] != rows.body_b[r]:
-                same = False
-                break
-        if same:
-            return meta[1] == 1, plan
+    if _same_rows(cache, rows, sel, n):
+        return meta[1] == 1, plan
     ok, fresh = tree_plan(rows, sel, n, inv_mass, nbody)
     if n > meta[2] or fresh.fac.shape[0] > plan.fac.shape[0] or fresh.z.shape[0] > plan.z.shape[0]:
         return ok, fresh
