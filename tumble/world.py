@@ -5,6 +5,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from numba.typed import List as TypedList
 
 from .errors import ModelError, SimulationError, StateError, TumbleWarning
 from .math.quat import quat_rotate, quat_rotate_inv
@@ -43,6 +44,8 @@ def _type_key(x):
         return (x.dtype.str, x.ndim, x.flags.c_contiguous, x.flags.writeable)
     if isinstance(x, tuple):
         return (type(x),) + tuple(_type_key(v) for v in x)
+    if isinstance(x, TypedList):
+        return x._numba_type_
     return type(x)
 
 
@@ -322,10 +325,11 @@ class World:
             joint_qrel=np.zeros((nw, nj, 4)), joint_force=np.zeros((nw, nj, 3)),
             joint_torque=np.zeros((nw, nj, 3)), contact_count=np.zeros(nw, np.int64),
             lcp_fallbacks=np.zeros(nw, np.int64))
+        self._box = None           # step.box_step_args of the arrays below, once made
         self._contacts = make_contacts(nw, 8 * model.ngeom + 64)
         self._pairs = np.zeros((8 * model.ngeom + 64, 2), np.int32)
         self._work = None          # scratch of the serial step, kept between calls
-        self._entry = None         # step_checked's compiled entry point, once called
+        self._entry = None         # step_boxed's compiled entry point, once called
         self.reset()
         self._prepare_step()
 
@@ -334,15 +338,47 @@ class World:
         earlier world of the process has compiled the step for the same argument types:
         the first ``step`` call then costs what the others do instead of a millisecond
         more. The first world of a process compiles the step on its first ``step``."""
-        if self.parallel or not pipeline_step.step_checked.overloads:
+        if self.parallel or not pipeline_step.step_boxed.overloads:
             return
         options = self._options()
         work = self._make_work(options)
-        entry = _entry_point(pipeline_step.step_checked,
-                             (self.model.arrays, self._state, self._contacts, self._pairs, 1,
-                              options, self._ball_joints, work), compiled_only=True)
+        args = (self.model.arrays, self._state, self._contacts, self._pairs,
+                self._ball_joints, work)
+        box_entry = _entry_point(pipeline_step.box_step_args, args, compiled_only=True)
+        if box_entry is None:
+            return
+        box = box_entry(*args)
+        entry = _entry_point(pipeline_step.step_boxed, (box, 1, options), compiled_only=True)
         if entry is not None:
-            self._work, self._entry = work, entry
+            self._work, self._box, self._entry = work, box, entry
+
+    # The step's box (``_box``) holds these objects' arrays: replacing one drops it.
+    @property
+    def _contacts(self):
+        return self._contacts_arrays
+
+    @_contacts.setter
+    def _contacts(self, value):
+        self._contacts_arrays = value
+        self._box = None
+
+    @property
+    def _pairs(self):
+        return self._pairs_buffer
+
+    @_pairs.setter
+    def _pairs(self, value):
+        self._pairs_buffer = value
+        self._box = None
+
+    @property
+    def _work(self):
+        return self._work_memory
+
+    @_work.setter
+    def _work(self, value):
+        self._work_memory = value
+        self._box = None
 
     @property
     def dt(self):
@@ -650,19 +686,23 @@ class World:
         return (make or pipeline_step.make_step_work)(*args)
 
     def _step_serial(self, n, options):
-        """Checks, the step and its retries in compiled code (``step.step_checked``), called
-        straight through its compiled entry point once known: Numba's dispatcher would
-        spend more time matching the hundred arrays' types than a small world's step.
+        """Checks, the step and its retries in compiled code (``step.step_checked``) on the
+        arrays held in ``self._box`` (``step.box_step_args``: one object to hand over
+        instead of ~210 arrays), called straight through its compiled entry point once
+        known: Numba's dispatcher would spend more time matching types than a small
+        world's step.
         Returns step_worlds' (status, world, step, body)."""
-        s = self._state
         while True:
             if self._work is None:
                 self._work = self._make_work(options)
-            args = (self.model.arrays, s, self._contacts, self._pairs, n, options,
-                    self._ball_joints, self._work)
+            if self._box is None:
+                held = (self.model.arrays, self._state, self._contacts, self._pairs,
+                        self._ball_joints, self._work)
+                self._box = _entry_point(pipeline_step.box_step_args, held)(*held)
+            args = (self._box, n, options)
             if self._entry is None:
-                stage, code, w, i, k, needed = pipeline_step.step_checked(*args)
-                self._entry = _entry_point(pipeline_step.step_checked, args)
+                stage, code, w, i, k, needed = pipeline_step.step_boxed(*args)
+                self._entry = _entry_point(pipeline_step.step_boxed, args)
             else:
                 stage, code, w, i, k, needed = self._entry(*args)
             if stage == pipeline_step.CALL_BAD_STATE:

@@ -100,7 +100,7 @@ def may_collide(m, ga, gb, nbody):
     return not _excluded(m, a, b, nbody)
 
 
-@noalloc
+@njit(cache=True)
 def collide_world(m, pos, quat, gpos, gquat, aabb_lo, aabb_hi, pairs, con, prev_count, prev,
                   world_margin, broadphase=BROADPHASE_SAP):
     """Contacts of one world, written into ``con`` (a ContactArrays view of this world).
