@@ -73,8 +73,15 @@ def test_play_and_pause_change_what_is_shown(replay):
     assert changed_pixels(page.screenshot(), still) <= NOISE          # paused: nothing moves
 
     page.page.get_by_role("button", name="Play").click()
-    time.sleep(0.6)
-    moving = page.screenshot()
+    # a software-rendered browser on a busy machine may take a while to draw the first
+    # frames: wait (up to 20 s) for the picture to move rather than a fixed time
+    deadline = time.monotonic() + 20.0
+    while True:
+        time.sleep(0.2)
+        moving = page.screenshot()
+        if (viewer.frame > 0 and changed_pixels(moving, still) > 500) \
+                or time.monotonic() > deadline:
+            break
     assert viewer.playing and viewer.frame > 0
     assert changed_pixels(moving, still) > 500
 
