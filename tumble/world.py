@@ -76,6 +76,18 @@ def _entry_point(dispatcher, args, compiled_only=False):
     return entry
 
 
+def _drops_box(attr):
+    """A World property kept in ``attr`` whose assignment drops the step's box
+    (``World._box``, ``step.box_step_args``): the box holds the old object's arrays."""
+    def get(world):
+        return getattr(world, attr)
+
+    def put(world, value):
+        setattr(world, attr, value)
+        world._box = None
+    return property(get, put)
+
+
 # How check_drives' fields are named in errors (the user-facing name where it differs).
 _DRIVE_NAMES = {"motor_target": "joint_motor_target", "joint_applied": "joint torque",
                 "pd_kp": "joint_kp", "pd_kd": "joint_kd", "body_servo": "body servo gain"}
@@ -353,32 +365,9 @@ class World:
             self._work, self._box, self._entry = work, box, entry
 
     # The step's box (``_box``) holds these objects' arrays: replacing one drops it.
-    @property
-    def _contacts(self):
-        return self._contacts_arrays
-
-    @_contacts.setter
-    def _contacts(self, value):
-        self._contacts_arrays = value
-        self._box = None
-
-    @property
-    def _pairs(self):
-        return self._pairs_buffer
-
-    @_pairs.setter
-    def _pairs(self, value):
-        self._pairs_buffer = value
-        self._box = None
-
-    @property
-    def _work(self):
-        return self._work_memory
-
-    @_work.setter
-    def _work(self, value):
-        self._work_memory = value
-        self._box = None
+    _contacts = _drops_box("_contacts_arrays")
+    _pairs = _drops_box("_pairs_buffer")
+    _work = _drops_box("_work_memory")
 
     @property
     def dt(self):

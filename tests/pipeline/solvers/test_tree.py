@@ -289,19 +289,25 @@ def test_ragdoll_mixed_lcp_tree_matches_dense():
     assert seen > 0                                      # contacts were present
 
 
-def test_tree_on_a_free_box_matches_dense():
-    """Two jointed boxes lying on a free box on the ground: the contact rows touch bodies
-    in the tree and one outside it (the free box answers with its own inverse mass), and
-    last step's contacts are tried first. The tree path gives the dense path's answer."""
+def boxes_on_a_free_box(slide=0.0):
+    """Two boxes joined by a hinge lying on a free box (sliding at ``slide`` m/s along x)
+    on the ground: contact rows on bodies in the joint tree and on one outside it."""
     b = tumble.ModelBuilder()
     b.add_geom(None, "plane", friction=0.9)
-    b.add_body("base", pos=(0, 0, 0.1), mass=5.0)
+    b.add_body("base", pos=(0, 0, 0.1), mass=5.0, vel=(slide, 0, 0))
     b.add_geom("base", "box", size=(0.6, 0.3, 0.1), friction=0.9)
     for i, x in enumerate((-0.2, 0.2)):
         b.add_body(f"l{i}", pos=(x, 0, 0.25), mass=1.0)
         b.add_geom(f"l{i}", "box", size=(0.2, 0.05, 0.05), friction=0.9)
     b.add_joint("hinge", "hinge", "l0", "l1", anchor=(0, 0, 0.25), axis=(0, 1, 0))
-    world = tumble.World(b.build(), dt=1 / 120)
+    return tumble.World(b.build(), dt=1 / 120)
+
+
+def test_tree_on_a_free_box_matches_dense():
+    """Two jointed boxes lying on a free box on the ground: the contact rows touch bodies
+    in the tree and one outside it (the free box answers with its own inverse mass), and
+    last step's contacts are tried first. The tree path gives the dense path's answer."""
+    world = boxes_on_a_free_box()
     seen = 0
     for _ in range(5):
         world.step(12)
@@ -374,15 +380,7 @@ def test_fast_path_declines_what_it_cannot_guess():
     coplanar contacts per box whose held rows are dependent (Lemke picks the basis). The
     fast path declines those steps and leaves its inputs as they were; whatever it does
     solve it solves as ``solve_mlcp`` does."""
-    b = tumble.ModelBuilder()
-    b.add_geom(None, "plane", friction=0.9)
-    b.add_body("base", pos=(0, 0, 0.1), mass=5.0, vel=(0.5, 0, 0))
-    b.add_geom("base", "box", size=(0.6, 0.3, 0.1), friction=0.9)
-    for i, x in enumerate((-0.2, 0.2)):
-        b.add_body(f"l{i}", pos=(x, 0, 0.25), mass=1.0)
-        b.add_geom(f"l{i}", "box", size=(0.2, 0.05, 0.05), friction=0.9)
-    b.add_joint("hinge", "hinge", "l0", "l1", anchor=(0, 0, 0.25), axis=(0, 1, 0))
-    world = tumble.World(b.build(), dt=1 / 120)
+    world = boxes_on_a_free_box(slide=0.5)
     solved, tried = check_fast_path(world, 60, 2)
     assert tried == 30 and solved < tried
 
