@@ -164,8 +164,9 @@ def guess_on_tree_fast(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, 
         plan.use[u] = 1
     if not tree_factor(plan, rows, bsel, cfm, inv_mass, inv_inertia, nbody):
         return FAST_NOT_HANDLED
-    for i in range(nload):
-        load[i] = 0.0
+    for a in range(nn):                     # only the slots _guess_states will sum into
+        if kind[oth[a]] == KIND_FRICTION:
+            load[_load_slot(rows, idx[oth[a]], impulse.shape[0])] = 0.0
     for i in range(n):
         b[i] = rows.rhs[idx[i]] - row_velocity(rows, idx[i], vel, angvel)
     for u in range(nb):
@@ -428,8 +429,6 @@ def _guess_on_tree(rows, idx, where, kind, oth, nn, sub, ns, state, b, g, plan, 
     for t in range(ns):
         for k in range(12):
             dva[t, k] = 0.0
-        for k in range(H.shape[1]):
-            H[t, k] = 0.0
         for k in range(member.shape[1]):
             member[t, k] = False
     for t in range(ns):

@@ -533,7 +533,8 @@ def tree_row_columns(plan, nbody, rows, rsel, ns, H, member, path, plen):
     velocity ``J_t u`` of the solution of ``[0; g]`` is that sum against the forward
     substituted ``z``, and impulses ``p`` on the rows add ``sum_t p_t h_t`` to it
     (``tree_add_columns``) before ``tree_backward``.
-    H (ns, 6 nbody + rows) zero on entry; member (ns, nbody + rows) bool False on entry;
+    H (ns, 6 nbody + rows) out, written (and read) only on each column's nodes;
+    member (ns, nbody + rows) bool False on entry;
     path (ns, nbody + rows) int64 out: the nodes of each column, children first;
     plen (ns,) int64 out: their number."""
     dim, zoff, opos = plan.dim, plan.z_off, plan.opos
@@ -544,12 +545,11 @@ def tree_row_columns(plan, nbody, rows, rsel, ns, H, member, path, plen):
             body = rows.body_b[r] if side else rows.body_a[r]
             if body < 0 or dim[body] != 6:
                 continue
-            hb = H[t, zoff[body]:zoff[body] + 6]
-            for k in range(6):
-                hb[k] += rows.J[r, 6 * side + k]
             u = body
             while u >= 0 and not member[t, u]:
                 member[t, u] = True
+                for k in range(zoff[u], zoff[u] + dim[u]):
+                    H[t, k] = 0.0
                 # insertion by elimination position, children (later in `order`) first
                 q = n
                 while q > 0 and opos[path[t, q - 1]] < opos[u]:
@@ -558,6 +558,9 @@ def tree_row_columns(plan, nbody, rows, rsel, ns, H, member, path, plen):
                 path[t, q] = u
                 n += 1
                 u = plan.eparent[u]
+            hb = H[t, zoff[body]:zoff[body] + 6]
+            for k in range(6):
+                hb[k] += rows.J[r, 6 * side + k]
         plen[t] = n
         for q in range(n):
             _forward_at(plan, path[t, q], nbody, H[t])
