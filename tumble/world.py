@@ -354,12 +354,9 @@ class World:
             return
         options = self._options()
         work = self._make_work(options)
-        args = (self.model.arrays, self._state, self._contacts, self._pairs,
-                self._ball_joints, work)
-        box_entry = _entry_point(pipeline_step.box_step_args, args, compiled_only=True)
-        if box_entry is None:
+        box = self._make_box(work, compiled_only=True)
+        if box is None:
             return
-        box = box_entry(*args)
         entry = _entry_point(pipeline_step.step_boxed, (box, 1, options), compiled_only=True)
         if entry is not None:
             self._work, self._box, self._entry = work, box, entry
@@ -674,6 +671,15 @@ class World:
         make = _entry_point(pipeline_step.make_step_work, args, compiled_only=True)
         return (make or pipeline_step.make_step_work)(*args)
 
+    def _make_box(self, work, compiled_only=False):
+        """``step.box_step_args`` of this world's arrays and ``work``, through its compiled
+        entry point once there is one; with ``compiled_only``, None when nothing is
+        compiled for these types yet."""
+        args = (self.model.arrays, self._state, self._contacts, self._pairs,
+                self._ball_joints, work)
+        make = _entry_point(pipeline_step.box_step_args, args, compiled_only=compiled_only)
+        return None if make is None else make(*args)
+
     def _step_serial(self, n, options):
         """Checks, the step and its retries in compiled code (``step.step_checked``) on the
         arrays held in ``self._box`` (``step.box_step_args``: one object to hand over
@@ -685,9 +691,7 @@ class World:
             if self._work is None:
                 self._work = self._make_work(options)
             if self._box is None:
-                held = (self.model.arrays, self._state, self._contacts, self._pairs,
-                        self._ball_joints, self._work)
-                self._box = _entry_point(pipeline_step.box_step_args, held)(*held)
+                self._box = self._make_box(self._work)
             args = (self._box, n, options)
             if self._entry is None:
                 stage, code, w, i, k, needed = pipeline_step.step_boxed(*args)

@@ -42,8 +42,7 @@ from ..joints.common import INF
 from .common import apply_impulses, minv_jt, row_velocity
 from .direct import assemble, cholesky_apply, cholesky_factor, row_dot
 from .lemke import LEMKE_INACCURATE, LEMKE_SOLVED, VERIFY_TOL as _VERIFY_TOL, lemke, lemke_warm
-from .tree import (cached_tree_plan, make_plan_cache, plan_kept as _plan_kept, tree_add_columns,
-                   tree_backward,
+from .tree import (cached_tree_plan, make_plan_cache, plan_kept, tree_add_columns, tree_backward,
                    tree_body_inverse, tree_column_dot, tree_factor, tree_forward, tree_load,
                    tree_row_columns, tree_solve, tree_unload)
 
@@ -150,7 +149,7 @@ def guess_on_tree_fast(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, 
         return FAST_NOT_HANDLED
     nbody = vel.shape[0]
     plan = cache.plan
-    if not _plan_kept(cache, rows, bsel, nb):
+    if not plan_kept(cache, rows, bsel, nb):
         return FAST_NOT_HANDLED
     nn = n - nb
     fl = fs.floats
@@ -164,6 +163,25 @@ def guess_on_tree_fast(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, 
         plan.use[u] = 1
     if not tree_factor(plan, rows, bsel, cfm, inv_mass, inv_inertia, nbody):
         return FAST_NOT_HANDLED
+    state, sub = ints[6 * nrow:6 * nrow + nn], ints[7 * nrow:7 * nrow + nn]
+    if _guess_and_finish(rows, nrow, idx, where, n, kind, bil, nb, oth, nn, bsel, plan,
+                         inv_mass, inv_inertia, vel, angvel, impulse, load, b, g, p_n, y, vn,
+                         state, sub, fs.guess):
+        return FAST_SOLVED
+    return FAST_NOT_HANDLED
+
+
+@noalloc
+def _guess_and_finish(rows, nrow, idx, where, n, kind, bil, nb, oth, nn, bsel, plan, inv_mass,
+                      inv_inertia, vel, angvel, impulse, load, b, g, p, y, vn, state, sub, gs):
+    """The tree path's first try, shared by ``_mlcp_tree`` and ``guess_on_tree_fast``:
+    ``b`` (n,) the active rows' right-hand side less their velocity and ``g`` (nb,) its
+    bilateral part (both kept for the caller), then last step's contact state
+    (``_guess_states``) solved and checked (``_guess_on_tree``, scratch ``gs``) and, when
+    it solves the LCP, applied (``_finish``). False leaves ``vel``, ``angvel`` and
+    ``impulse`` as they came (also when ``gs`` has no room for the held rows).
+    load (2 row capacity,), p (nn,), y (nb,), vn (nbody, 6), state, sub (nn,) int64:
+    scratch, any content on entry."""
     for a in range(nn):                     # only the slots _guess_states will sum into
         if kind[oth[a]] == KIND_FRICTION:
             load[_load_slot(rows, idx[oth[a]], impulse.shape[0])] = 0.0
@@ -171,24 +189,23 @@ def guess_on_tree_fast(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, 
         b[i] = rows.rhs[idx[i]] - row_velocity(rows, idx[i], vel, angvel)
     for u in range(nb):
         g[u] = b[bil[u]]
-    state, sub = ints[6 * nrow:6 * nrow + nn], ints[7 * nrow:7 * nrow + nn]
     for a in range(nn):
         state[a] = 0
-        p_n[a] = 0.0
+        p[a] = 0.0
     if not _guess_states(rows, idx, where, kind, oth, nn, impulse, state, load):
-        return FAST_NOT_HANDLED
+        return False
     ns = np.int64(0)
     for a in range(nn):
         if state[a] != _ZERO:
             sub[ns] = a
             ns += 1
-    if ns > fs.guess.rsel.shape[0]:
-        return FAST_NOT_HANDLED
+    if ns > gs.rsel.shape[0]:
+        return False
     if not _guess_on_tree(rows, idx, where, kind, oth, nn, sub, ns, state, b, g, plan,
-                          inv_mass, inv_inertia, vel, angvel, p_n, vn, y, fs.guess):
-        return FAST_NOT_HANDLED
-    _finish(rows, nrow, idx, oth, nn, bsel, nb, y, p_n, vn, vel, angvel, impulse)
-    return FAST_SOLVED
+                          inv_mass, inv_inertia, vel, angvel, p, vn, y, gs):
+        return False
+    _finish(rows, nrow, idx, oth, nn, bsel, nb, y, p, vn, vel, angvel, impulse)
+    return True
 
 
 @noalloc
@@ -254,22 +271,10 @@ def _mlcp_tree(rows, nrow, idx, where, n, kind, bil, nb, oth, nn, bsel, plan, in
     vn = floats[o:o + 6 * nbody].reshape((nbody, 6))
     ints = np.zeros(2 * nn, np.int64)
     state, sub = ints[:nn], ints[nn:]
-    for i in range(n):
-        r = idx[i]
-        b[i] = rows.rhs[r] - row_velocity(rows, r, vel, angvel)
-    for u in range(nb):
-        g[u] = b[bil[u]]
-    if _guess_states(rows, idx, where, kind, oth, nn, impulse, state, load):
-        ns = np.int64(0)
-        for a in range(nn):
-            if state[a] != _ZERO:
-                sub[ns] = a
-                ns += 1
-        if _guess_on_tree(rows, idx, where, kind, oth, nn, sub, ns, state, b, g, plan,
-                          inv_mass, inv_inertia, vel, angvel, p_n, vn, y,
-                          make_guess_scratch(ns, nbody, plan)):
-            _finish(rows, nrow, idx, oth, nn, bsel, nb, y, p_n, vn, vel, angvel, impulse)
-            return LEMKE_SOLVED
+    if _guess_and_finish(rows, nrow, idx, where, n, kind, bil, nb, oth, nn, bsel, plan,
+                         inv_mass, inv_inertia, vel, angvel, impulse, load, b, g, p_n, y, vn,
+                         state, sub, make_guess_scratch(nn, nbody, plan)):
+        return LEMKE_SOLVED
     u0 = np.zeros((nbody, 6))
     y0 = np.empty(nb)
     tree_solve(plan, nbody, u0, g, u0, y0)       # f = u0 = 0 on entry
@@ -398,8 +403,9 @@ def make_guess_scratch(nheld, nbody, plan):
     """Scratch for ``_guess_on_tree`` with up to ``nheld`` held rows on ``plan``."""
     k = max(nheld, 1)
     nz, nnode = plan.z.shape[0], plan.opos.shape[0]
-    return GuessScratch(np.empty(k, np.int64), np.zeros(nbody, np.bool_), np.zeros((k, 12)),
-                        np.zeros((k, nz)), np.zeros((k, nnode), np.bool_),
+    # no need to zero: _guess_on_tree and tree_row_columns clear what they use
+    return GuessScratch(np.empty(k, np.int64), np.empty(nbody, np.bool_), np.empty((k, 12)),
+                        np.empty((k, nz)), np.empty((k, nnode), np.bool_),
                         np.empty((k, nnode), np.int64), np.empty(k, np.int64),
                         np.empty((k, k)), np.empty((k, k)), np.empty((k, k)), np.empty(k),
                         np.empty(k), np.empty(k), np.empty(k), np.empty(k, np.int64))
