@@ -32,7 +32,8 @@ if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import tumble  # noqa: E402
 from tumble.pipeline import step as P  # noqa: E402
-from tumble.pipeline.collide import COLLIDE_OK, collide_world  # noqa: E402
+from tumble.pipeline.collide import (COLLIDE_OK, collide_listed, collide_world,  # noqa: E402
+                                     listed_pairs, listed_primitives)
 from tumble.pipeline.actuators import (PD_EXPLICIT, PD_IMPLICIT, PD_STABLE,  # noqa: E402
                                        actuator_forces, body_servo_rows, servoed_bodies,
                                        stable_servo_forces)
@@ -119,6 +120,8 @@ def profiled_steps(m, s, con, pairs, n, o, t_stage, t_part, counts):
     projection = projection_setup(m, rows, nb, njrow > 0 and o.projection > 0)
     caches = P.make_solver_caches(m, servoed, nb)
     fast = make_fast_scratch(ncap, nb, caches[1])
+    listed = listed_pairs(m, nb)
+    all_primitive = listed_primitives(m, listed)
     has_servo = np.any(s.pd_kp > 0.0) or np.any(s.pd_kd > 0.0)
     has_drives = m.act_joint.shape[0] > 0 or np.any(s.joint_applied != 0.0) or (
         o.pd_mode == PD_EXPLICIT and has_servo)
@@ -140,8 +143,13 @@ def profiled_steps(m, s, con, pairs, n, o, t_stage, t_part, counts):
                 prev.feature[c] = cw.feature[c]
                 for q in range(cw.impulse.shape[1]):
                     prev.impulse[c, q] = cw.impulse[c, q]
-            code, ncon = collide_world(m, pos, quat, gpos, gquat, aabb_lo, aabb_hi, pairs,
-                                       cw, nprev, prev, o.contact_margin, o.broadphase)
+            if all_primitive:
+                code, ncon = collide_listed(m, pos, quat, gpos, gquat, aabb_lo, aabb_hi, pairs,
+                                            cw, nprev, prev, o.contact_margin, listed)
+            else:
+                code, ncon = collide_world(m, pos, quat, gpos, gquat, aabb_lo, aabb_hi, pairs,
+                                           cw, nprev, prev, o.contact_margin, o.broadphase,
+                                           listed)
             if code != COLLIDE_OK:
                 return -1, k
             s.contact_count[w] = ncon

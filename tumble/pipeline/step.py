@@ -27,7 +27,8 @@ from numba.typed import List
 
 from .._jit import noalloc
 from ..model.model import STATIC
-from .collide import COLLIDE_OK, COLLIDE_PAIRS_FULL, collide_world
+from .collide import (COLLIDE_OK, COLLIDE_PAIRS_FULL, collide_listed, collide_world,
+                      listed_pairs, listed_primitives)
 from .contacts.arrays import ContactArrays, make_contacts_nb
 from .contacts.pairs import ROWS_SPIN, rows_per_contact
 from .contacts.penalty import penalty_forces
@@ -280,7 +281,8 @@ def make_solver_caches(m, servoed, nbody):
 # Scratch memory of one world's steps, kept by the World between step calls (made by
 # make_step_work; step_worlds checks it still fits with work_fits).
 StepWork = namedtuple("StepWork", [
-    "key",          # (4,) int64: contact capacity, rows, projection on, spin rows
+    "key",          # (5,) int64: contact capacity, rows, projection on, spin rows,
+                    # 1 when the listed pairs are all primitives (collide_listed)
     "force",        # (nbody, 3) accumulated force, N
     "torque",       # (nbody, 3) accumulated torque, N m
     "inv_inertia",  # (nbody, 3, 3) world inverse inertia
@@ -293,6 +295,7 @@ StepWork = namedtuple("StepWork", [
     "projection",   # stabilize.projection_setup
     "caches",       # (direct, mlcp) tree-plan caches (make_solver_caches)
     "fast",         # mlcp.FastScratch: the mixed LCP's common case without allocating
+    "listed",       # (K, 2) int32 the geom pairs that may touch (collide.listed_pairs)
 ])
 
 
@@ -308,13 +311,15 @@ def make_step_work(m, s, con, o):
     ncap = _row_capacity(njrow, servoed.shape[0], nper, cap, o)
     rows = make_rows_nb(ncap)
     project = njrow > 0 and o.projection > 0
-    key = np.array([cap, ncap, 1 if project else 0, nper], np.int64)
+    listed = listed_pairs(m, nb)
+    key = np.array([cap, ncap, 1 if project else 0, nper,
+                    1 if listed_primitives(m, listed) else 0], np.int64)
     caches = make_solver_caches(m, servoed, nb)
     return StepWork(key, np.empty((nb, 3)), np.empty((nb, 3)), np.zeros((nb, 3, 3)), rows,
                     np.zeros(ncap), np.zeros((ng, 3)), np.zeros((ng, 4)), np.zeros((ng, 3)),
                     np.zeros((ng, 3)), make_contacts_nb(cap), np.empty((nb, 3)),
                     np.empty((nb, 3)), servoed, projection_setup(m, rows, nb, project),
-                    caches, make_fast_scratch(ncap, nb, caches[1]))
+                    caches, make_fast_scratch(ncap, nb, caches[1]), listed)
 
 
 @njit(cache=True, inline="always")
@@ -488,8 +493,14 @@ def step_worlds(m, s, con, pairs, n, o, work):
                     prev.feature[c] = cw.feature[c]
                     for q in range(cw.impulse.shape[1]):
                         prev.impulse[c, q] = cw.impulse[c, q]
-                code, ncon = collide_world(m, pos, quat, gpos, gquat, aabb_lo, aabb_hi, pairs,
-                                           cw, nprev, prev, o.contact_margin, o.broadphase)
+                if work.key[4] == 1:
+                    code, ncon = collide_listed(m, pos, quat, gpos, gquat, aabb_lo, aabb_hi,
+                                                pairs, cw, nprev, prev, o.contact_margin,
+                                                work.listed)
+                else:
+                    code, ncon = collide_world(m, pos, quat, gpos, gquat, aabb_lo, aabb_hi,
+                                               pairs, cw, nprev, prev, o.contact_margin,
+                                               o.broadphase, work.listed)
                 if code != COLLIDE_OK:
                     status = STEP_MORE_PAIRS if code == COLLIDE_PAIRS_FULL else STEP_MORE_CONTACTS
                     fail_w, fail_k, needed = w, k, ncon

@@ -190,3 +190,85 @@ def test_world_broadphase_option():
         w.broadphase = "octree"
     with pytest.raises(ModelError, match="broadphase"):
         scene(None)
+
+
+# ------------------------------------------------------- listed pairs (small scenes) ---
+
+def _collide(world, route):
+    """Contacts (geoms, depths, points) of ``world``'s current state by one collision
+    route: 'sap' or 'grid' (the broad phase), 'listed' (collide_world over the listed
+    pairs) or 'listed-noalloc' (collide_listed)."""
+    from tumble.pipeline.collide import collide_listed, collide_world, listed_pairs
+    from tumble.pipeline.contacts.arrays import make_contacts
+    m, s = world.model.arrays, world._state
+    ng = world.model.ngeom
+    con = make_contacts(1, 256)
+    view = type(con)(*(a[0] for a in con))
+    prev = type(con)(*(a[0].copy() for a in con))
+    lo, hi = np.zeros((ng, 3)), np.zeros((ng, 3))
+    pairs = np.zeros((ng * ng, 2), np.int32)
+    listed = listed_pairs(m, world.model.nbody)
+    args = (m, s.body_pos[0], s.body_quat[0], np.zeros((ng, 3)), np.zeros((ng, 4)), lo, hi,
+            pairs, view, np.int64(0), prev, world.contact_margin)
+    if route == "listed-noalloc":
+        status, n = collide_listed(*args, listed)
+    elif route == "listed":
+        status, n = collide_world(*args, BROADPHASES["sap"], listed)
+    else:
+        status, n = collide_world(*args, BROADPHASES[route], np.zeros((0, 2), np.int32))
+    assert status == 0
+    return view.geom[:n].copy(), view.depth[:n].copy(), view.point[:n].copy()
+
+
+def test_listed_pairs_are_the_pairs_that_may_touch():
+    from tumble.pipeline.collide import listed_pairs, listed_primitives, may_collide
+    w = scene("sap")
+    m, nb = w.model.arrays, w.model.nbody
+    listed = [tuple(p) for p in listed_pairs(m, nb)]
+    expect = [(i, j) for i, j in itertools.combinations(range(w.model.ngeom), 2)
+              if may_collide(m, i, j, nb)]
+    assert listed == expect and 0 < len(listed) < w.model.ngeom * (w.model.ngeom - 1) // 2
+    assert not listed_primitives(m, listed_pairs(m, nb))          # the heightfield's pairs
+
+
+def test_too_many_pairs_are_left_to_the_broad_phase():
+    from tumble.pipeline.collide import LISTED_PAIRS_MAX, listed_pairs
+    b = tumble.ModelBuilder()
+    b.add_geom(None, "plane")
+    n = 40                                          # 40 * 41 / 2 = 820 pairs > 512
+    for i in range(n):
+        b.add_geom(b.add_body("s%d" % i, pos=(0.3 * i, 0, 1), mass=1.0), "sphere", radius=0.1)
+    model = b.build()
+    assert n * (n + 1) // 2 > LISTED_PAIRS_MAX
+    assert listed_pairs(model.arrays, model.nbody).shape == (0, 2)
+
+
+@pytest.mark.parametrize("heightfield", [True, False])
+def test_listed_route_finds_the_broad_phases_contacts(heightfield):
+    """The same contacts, in the same order, whichever route finds the pairs; with only
+    primitives the allocation-free route (collide_listed) too."""
+    w = scene("sap")
+    if not heightfield:             # the same kinds of bodies, primitives only
+        b = tumble.ModelBuilder(timestep=1.0 / 240.0)
+        b.add_geom(None, "plane")
+        rng = np.random.default_rng(5)
+        for i in range(12):
+            body = b.add_body("g%d" % i, pos=(rng.uniform(-0.4, 0.4), rng.uniform(-0.4, 0.4),
+                                             0.15 + 0.1 * i), mass=1.0,
+                              quat=Rotation.random(random_state=rng).as_quat())
+            if i % 2:
+                b.add_geom(body, "box", size=rng.uniform(0.05, 0.15, 3))
+            else:
+                b.add_geom(body, "capsule", radius=0.05, half_length=0.1)
+        w = tumble.World(b.build(), contact="pgs", iterations=20)
+    routes = ["sap", "grid", "listed"] + ([] if heightfield else ["listed-noalloc"])
+    seen = 0
+    for _ in range(8):
+        w.step(30)
+        ref = _collide(w, "sap")
+        seen += len(ref[1])
+        for route in routes[1:]:
+            got = _collide(w, route)
+            for a, b_ in zip(ref, got):
+                assert np.array_equal(a, b_), route
+    assert seen > 0

@@ -10,7 +10,9 @@ Two methods, both exact (the same pairs as testing every pair), chosen per world
   tested against the grid cells they cover.
 
 Both return the pairs ``(i, j)``, ``i < j``, in lexicographic order, which the warm start
-of ``collide.collide_world`` relies on.
+of ``collide.collide_world`` relies on. A step on a model with few pairs that may touch
+at all uses neither: ``collide.listed_pairs`` lists them once and each step tests their
+boxes (``boxes_overlap``).
 """
 import numpy as np
 from numba import njit
@@ -199,7 +201,7 @@ def overlapping_pairs(method, aabb_lo, aabb_hi, out_pairs, geom_body=None):
 
 
 @njit(cache=True, inline="always")
-def _boxes_overlap(lo, hi, i, j):
+def boxes_overlap(lo, hi, i, j):
     """Closed AABBs ``i`` and ``j`` overlap on all three axes."""
     return not (lo[i, 0] > hi[j, 0] or lo[j, 0] > hi[i, 0]
                 or lo[i, 1] > hi[j, 1] or lo[j, 1] > hi[i, 1]
@@ -211,7 +213,7 @@ def _add_pair(aabb_lo, aabb_hi, geom_body, i, j, out_pairs, count):
     """Count the candidate pair (i, j) if its boxes overlap and (with ``geom_body``) its
     geoms are on different bodies, recording it as (min, max) while ``out_pairs`` has
     room; returns the new count (the caller asks for a larger buffer when it overflows)."""
-    if not _boxes_overlap(aabb_lo, aabb_hi, i, j):
+    if not boxes_overlap(aabb_lo, aabb_hi, i, j):
         return count
     if geom_body is not None:
         if geom_body[i] == geom_body[j]:
