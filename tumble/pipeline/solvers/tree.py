@@ -241,11 +241,14 @@ def _eliminate_block(a, d, dv, w, dp, par):
                 w[i * dp + c] -= el * w[k * dp + c]
         for c in range(dp):
             w[i * dp + c] *= inv
-    for i in range(d):
-        for x in range(dp):
-            y = w[i * dp + x]
-            for c in range(x + 1):
-                par[x * dp + c] += y * w[i * dp + c]
+    # each entry of W^T W summed in a register (the compiler cannot tell that ``par`` and
+    # ``w`` do not overlap, so a sum kept in ``par`` is stored and reloaded every term)
+    for x in range(dp):
+        for c in range(x + 1):
+            acc = par[x * dp + c]
+            for i in range(d):
+                acc += w[i * dp + x] * w[i * dp + c]
+            par[x * dp + c] = acc
 
 
 @njit(cache=True, inline="always")
