@@ -7,7 +7,7 @@ import sys
 
 def _demo(args):
     from .apps import racket
-    print("(the first run compiles tumble's kernels: 2.5 to 4.5 minutes on 2 cores; later runs "
+    print("(the first run compiles tumble's kernels: several minutes on 2 cores (up to 9 seen); later runs "
           "start at once)", flush=True)
     times, omegas, summary = racket.run(seconds=args.seconds)
     if args.plot:
