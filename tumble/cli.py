@@ -7,8 +7,8 @@ import sys
 
 def _demo(args):
     from .apps import racket
-    print("(the first run compiles tumble's kernels: several minutes on 2 cores (up to 9 seen); later runs "
-          "start at once)", flush=True)
+    print("(the first run compiles tumble's kernels: several minutes on 2 cores (up to 9 seen); "
+          "later runs start at once)", flush=True)
     times, omegas, summary = racket.run(seconds=args.seconds)
     if args.plot:
         racket.plot(times, omegas, args.plot)

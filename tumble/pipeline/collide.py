@@ -204,7 +204,8 @@ def _record_contacts(m, ga, gb, con, count, n, prev_count, prev, p):
     ``con[count:]``, each with the impulse of last step's contact of the same pair and
     feature (``prev``, ``prev_count`` of them, in pair order like this step's); ``p`` is
     the cursor into them, returned advanced to this pair."""
-    while p < prev_count and (prev.geom[p, 0] < ga or (prev.geom[p, 0] == ga and prev.geom[p, 1] < gb)):
+    while p < prev_count and (prev.geom[p, 0] < ga
+                              or (prev.geom[p, 0] == ga and prev.geom[p, 1] < gb)):
         p += 1
     for c in range(count, count + n):
         con.geom[c, 0] = ga

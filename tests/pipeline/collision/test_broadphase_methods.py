@@ -133,9 +133,14 @@ def test_find_pairs_rejects_unknown_method():
 
 # ------------------------------------------------------------------ in a World ---
 
-def scene(broadphase):
+CROWD = 12          # spheres that push the scene past collide.LISTED_PAIRS_MAX pairs
+
+def scene(broadphase, crowd=0):
     """Plane, a heightfield, a static wall, a static body, jointed capsules (the joint
-    pair excluded), boxes, spheres and cylinders with collision bits that rule some out."""
+    pair excluded), boxes, spheres and cylinders with collision bits that rule some out;
+    ``crowd`` small spheres more, resting in a row on the ground away from the rest (enough
+    of them leave more pairs that may touch than ``collide.LISTED_PAIRS_MAX``, so that a
+    step runs the broad phase)."""
     rng = np.random.default_rng(11)
     b = tumble.ModelBuilder(timestep=1.0 / 240.0)
     b.add_geom(None, "plane", name="ground")
@@ -162,11 +167,17 @@ def scene(broadphase):
             b.add_geom(body, "box", size=rng.uniform(0.05, 0.2, 3), **bits)
         else:
             b.add_geom(body, "cylinder", radius=0.1, half_length=0.1, **bits)
+    for i in range(crowd):
+        b.add_geom(b.add_body("crowd%d" % i, pos=(6.0 + 0.25 * i, 3.0, 0.1), mass=1.0), "sphere",
+                   radius=0.1)
     return tumble.World(b.build(), contact="pgs", iterations=20, broadphase=broadphase)
 
 
 def test_worlds_step_identically_with_every_broadphase():
-    worlds = {m: scene(m) for m in METHODS}
+    from tumble.pipeline.collide import listed_pairs
+    worlds = {m: scene(m, crowd=CROWD) for m in METHODS}
+    model = worlds["sap"].model
+    assert listed_pairs(model.arrays, model.nbody).shape[0] == 0      # the broad phase runs
     for _ in range(6):
         for w in worlds.values():
             w.step(20)
