@@ -17,6 +17,9 @@ FIRST = "tests/test_world.py"
 SHARED_WORKER = {
     "tests/test_world.py": "batched-step",
     "tests/pipeline/test_parallel.py": "batched-step",
+    "tests/rl/test_imitation.py": "batched-step",
+    "tests/rl/test_gym.py": "batched-step",
+    "tests/rl/test_train.py": "batched-step",
 }
 
 # Files that never step a world (kernels, parsers, the viewer on recordings), longest first.
@@ -35,6 +38,8 @@ STEP_FREE = [
     "tests/bench/test_bench_ode.py",
     "tests/test_cache.py",
     "tests/viewer/test_examples.py",
+    "tests/rl/test_reference.py",
+    "tests/rl/test_policy.py",
 ]
 
 

@@ -1,7 +1,11 @@
 """The ``tumble`` command: ``tumble demo`` runs the demo, ``tumble info`` shows the set-up,
 ``tumble view MODEL`` opens the browser viewer, ``tumble record`` and ``tumble export`` make
-recordings and videos (see ``tumble.viewer.sources`` for what MODEL may be)."""
+recordings and videos (see ``tumble.viewer.sources`` for what MODEL may be; a trained
+policy file is one), ``tumble train imitate CLIP`` trains a policy (needs ``tumble[rl]``)
+and ``tumble play POLICY`` shows it in the browser viewer."""
 import argparse
+import importlib.util
+import os
 import sys
 
 
@@ -35,7 +39,12 @@ def _size(text):
     return w, h
 
 
-def _follow(text):
+def _follow(text, control=None):
+    """The body the camera follows: as asked, or for a policy (not asked) its root body."""
+    play = sys.modules.get("tumble.rl.play")       # loaded if MODEL was a policy
+    if text is None and play is not None and isinstance(control, play.PolicyDriver):
+        env = control.env
+        return env.model.body_names[env.root]
     return None if text in (None, "off") else text
 
 
@@ -54,7 +63,7 @@ def _view(args):
     from .viewer.sources import load_source
     source, control = load_source(args.model)
     viewer = Viewer(source, host=args.host, port=args.port, paused=args.paused,
-                    speed=args.speed, control=control, follow=_follow(args.follow),
+                    speed=args.speed, control=control, follow=_follow(args.follow, control),
                     contacts=args.contacts, forces=args.forces, joints=args.joints,
                     com=args.com, lighting=args.lighting, verbose=False)
     print(f"tumble viewer: open {viewer.url} in a browser (Ctrl-C to stop)", flush=True)
@@ -79,10 +88,121 @@ def _export(args):
     if args.save_recording:
         print(f"recording written to {rec.save(args.save_recording)}")
     n = export_video(rec, args.output, fps=args.fps, size=args.size, speed=args.speed,
-                     follow=_follow(args.follow), contacts=args.contacts, com=args.com,
-                     progress=None)
+                     follow=_follow(args.follow, control), contacts=args.contacts,
+                     com=args.com, progress=None)
     print(f"{n} frames written to {args.output}")
     return 0
+
+
+def _train(args):
+    missing = [name for name, module in (("PyTorch", "torch"), ("rsl-rl", "rsl_rl"))
+               if importlib.util.find_spec(module) is None]
+    if missing:
+        print(f"tumble train: error: training needs PyTorch and rsl-rl ({' and '.join(missing)} "
+              f"missing): pip install \"tumble[rl]\"", file=sys.stderr)
+        return 2
+    try:
+        from .rl.train import TrainConfig, Trainer
+    except ImportError as exc:          # installed, but broken (e.g. a mismatched version)
+        print(f"tumble train: error: {exc}", file=sys.stderr)
+        return 2
+    clip = args.clip or "walk"
+    stem = clip
+    if clip.lower().endswith(".bvh"):
+        stem = os.path.splitext(os.path.basename(clip))[0]
+        # the policy's spec names its clip: absolute, so it plays from any directory
+        clip = os.path.abspath(clip)
+    out = args.out or os.path.join("runs", f"{args.task}-{stem}")
+    checkpoint = os.path.join(out, "checkpoint.pt")
+    progress = not args.no_progress
+    if args.resume:
+        # the run goes on as it was configured; only its length and schedule may change
+        trainer = Trainer(out, None, resume=True, progress=progress, log=print)
+        c = trainer.config
+        ignored = [f"{flag} {value}" for flag, value, kept in (
+            ("CLIP", args.clip, c.clip), ("--envs", args.envs, c.num_envs),
+            ("--seed", args.seed, c.seed)) if value is not None and value != kept]
+        if ignored:
+            print(f"tumble train: note: the resumed run keeps its clip {c.clip!r}, "
+                  f"{c.num_envs} characters and seed {c.seed}; ignored: {', '.join(ignored)}",
+                  file=sys.stderr)
+        if args.iterations is not None:
+            c.iterations = args.iterations
+        if args.eval_every is not None:
+            c.eval_every = args.eval_every
+    else:
+        if os.path.exists(checkpoint):
+            # never overwrite a run (it may be training right now): appended logs and a
+            # replaced checkpoint would mix two runs
+            print(f"tumble train: error: {out} already holds a run ({checkpoint}); continue it "
+                  f"with --resume or choose another --out", file=sys.stderr)
+            return 2
+        defaults = TrainConfig()
+        config = TrainConfig(
+            clip=clip,
+            num_envs=defaults.num_envs if args.envs is None else args.envs,
+            iterations=defaults.iterations if args.iterations is None else args.iterations,
+            eval_every=defaults.eval_every if args.eval_every is None else args.eval_every,
+            seed=defaults.seed if args.seed is None else args.seed)
+        print(f"tumble train: {args.task} {clip!r} with {config.num_envs} characters, "
+              f"{config.iterations} iterations, in {out}", flush=True)
+        trainer = Trainer(out, config, progress=progress, log=print)
+    try:
+        trainer.run(max_hours=args.hours)
+    except KeyboardInterrupt:
+        # keep what was learnt: the networks as of the last finished update (a rollout
+        # under way is lost), so that --resume goes on from here
+        trainer.save()
+        print(f"\ntumble train: interrupted at iteration {trainer.iteration}; saved, continue "
+              f"with: tumble train {args.task} --out {out} --resume", file=sys.stderr)
+        return 130
+    policy = os.path.join(out, "policy.npz")
+    print(f"tumble train: iteration {trainer.iteration}, {trainer.samples} samples, "
+          f"{trainer.wall / 3600:.2f} h; policy written to {policy}", flush=True)
+    print(f"watch it: tumble play {policy}", flush=True)
+    return 0
+
+
+def _play(args):
+    from .rl.play import policy_world
+    from .viewer.app import Viewer
+    world, driver, env = policy_world(args.policy, restart_after=args.seconds,
+                                      fall_delay=args.fall_delay, seed=args.seed)
+    root = env.model.body_names[env.root]
+    info = driver.policy.info
+    trained = ""
+    if info.get("samples") is not None:
+        trained = (f", trained on {int(info['samples']):,} samples "
+                   f"({float(info.get('wall_hours', 0.0)):.1f} h)")
+    print(f"tumble play: {driver.policy!r}{trained}", flush=True)
+    viewer = Viewer(world, host=args.host, port=args.port, paused=args.paused,
+                    speed=args.speed, control=driver, follow=root, contacts=args.contacts,
+                    verbose=False)
+    print(f"tumble viewer: open {viewer.url} in a browser (Ctrl-C to stop)", flush=True)
+    viewer.serve_forever()
+    return 0
+
+
+def _positive(kind):
+    def parse(text):
+        try:
+            v = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a number, got {text!r}")
+        if not v > 0:
+            raise argparse.ArgumentTypeError(f"must be > 0, got {text!r}")
+        return v
+    return parse
+
+
+def _non_negative_int(text):
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}")
+    if v < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {text!r}")
+    return v
 
 
 def main(argv=None):
@@ -95,8 +215,8 @@ def main(argv=None):
     info = sub.add_parser("info", help="versions of tumble and its dependencies")
     info.set_defaults(func=_info)
 
-    model_help = ("a .py file defining world, model or build(), a .npz recording, "
-                  "an MJCF .xml file (when tumble.load_mjcf exists) or a demo name "
+    model_help = ("a .py file defining world, model or build(), a .npz recording or trained "
+                  "policy, an MJCF .xml file (when tumble.load_mjcf exists) or a demo name "
                   "(ragdoll, stack, chain, racket)")
     view = sub.add_parser("view", help="the browser viewer (needs tumble[viewer])")
     view.add_argument("model", metavar="MODEL", help=model_help)
@@ -104,7 +224,8 @@ def main(argv=None):
     view.add_argument("--port", type=int, default=8080, help="0 picks a free port")
     view.add_argument("--paused", action="store_true", help="start paused")
     view.add_argument("--speed", type=float, default=1.0, help="simulated s per wall s")
-    view.add_argument("--follow", help="camera follows 'com' or a body name")
+    view.add_argument("--follow", help="camera follows 'com', a body name or 'off' (default: "
+                                       "off; for a policy, its character's root)")
     for flag, what in (("contacts", "contact points"), ("forces", "contact forces"),
                        ("joints", "joint axes"), ("com", "the centre of mass")):
         view.add_argument(f"--{flag}", action="store_true", help=f"show {what}")
@@ -127,14 +248,58 @@ def main(argv=None):
     export.add_argument("--fps", type=float, default=30.0)
     export.add_argument("--size", type=_size, default=(640, 360), help="WIDTHxHEIGHT")
     export.add_argument("--speed", type=float, default=1.0, help="0.5: slow motion")
-    export.add_argument("--follow", help="camera follows 'com' or a body name")
+    export.add_argument("--follow", help="camera follows 'com', a body name or 'off' "
+                                         "(default: off; for a policy, its character's root)")
     export.add_argument("--contacts", action="store_true", help="draw contacts and forces")
     export.add_argument("--com", action="store_true", help="mark the centre of mass")
     export.add_argument("--save-recording", metavar="REC.npz")
     export.set_defaults(func=_export)
 
+    train = sub.add_parser("train", help="train a policy with PPO (needs tumble[rl]: PyTorch "
+                                         "and rsl-rl)")
+    tasks = train.add_subparsers(dest="task", required=True, metavar="TASK")
+    imitate = tasks.add_parser("imitate", help="DeepMimic-style imitation of a motion clip")
+    imitate.add_argument("clip", metavar="CLIP", nargs="?", default=None,
+                         help="a course clip name (walk, run, idle) or a BVH path "
+                              "(default: walk)")
+    imitate.add_argument("--out", metavar="DIR",
+                         help="run directory (default: runs/imitate-CLIP): checkpoint.pt, "
+                              "policy.npz, best.npz, progress.csv, eval.csv")
+    imitate.add_argument("--envs", type=_positive(int), metavar="N",
+                         help="characters simulated together (default 128)")
+    imitate.add_argument("--iterations", type=_positive(int), metavar="K",
+                         help="PPO iterations in all, counting those of a resumed run "
+                              "(default 1000)")
+    imitate.add_argument("--hours", type=_positive(float), metavar="H",
+                         help="stop (and save) after this much wall time")
+    imitate.add_argument("--resume", action="store_true",
+                         help="continue the run in DIR from its checkpoint")
+    imitate.add_argument("--seed", type=int, metavar="S", help="random seed (default 0)")
+    imitate.add_argument("--eval-every", type=_non_negative_int, metavar="K",
+                         help="evaluate every K iterations; 0: never (default 50)")
+    imitate.add_argument("--no-progress", action="store_true", help="no progress bar")
+    imitate.set_defaults(func=_train)
+
+    play = sub.add_parser("play", help="a trained policy in the browser viewer (needs "
+                                       "tumble[viewer])")
+    play.add_argument("policy", metavar="POLICY",
+                      help="a policy .npz (e.g. runs/imitate-walk/policy.npz) or the name "
+                           "of a shipped policy")
+    play.add_argument("--host", default="127.0.0.1")
+    play.add_argument("--port", type=int, default=8080, help="0 picks a free port")
+    play.add_argument("--seconds", type=_positive(float), metavar="S",
+                      help="also start the character over every S simulated seconds "
+                           "(default: only about 1 s after a fall)")
+    play.add_argument("--fall-delay", type=float, default=1.0, metavar="S",
+                      help="seconds a fall is shown before starting over (default 1)")
+    play.add_argument("--seed", type=int, help="seed of the start phases")
+    play.add_argument("--paused", action="store_true", help="start paused")
+    play.add_argument("--speed", type=float, default=1.0, help="simulated s per wall s")
+    play.add_argument("--contacts", action="store_true", help="show contact points")
+    play.set_defaults(func=_play)
+
     args = parser.parse_args(argv)
-    if args.command in ("view", "record", "export"):
+    if args.command in ("view", "record", "export", "train", "play"):
         from .errors import TumbleError
         try:
             return args.func(args)

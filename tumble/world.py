@@ -545,6 +545,88 @@ class World:
         s.contact_count[:] = count
         self._update_joint_coordinates()
 
+    def set_body_state(self, body_pos, body_quat, body_vel, body_angvel, *, worlds=None):
+        """Place the bodies of some worlds of a batch (all by default) and start them afresh.
+
+        body_pos (k, nbody, 3) m, body_quat (k, nbody, 4) xyzw (normalised here), body_vel
+        and body_angvel (k, nbody, 3) m/s and rad/s, world frame, for the k worlds selected by
+        ``worlds`` (indices, a boolean mask of nworld, or None for all; a single world may
+        drop the leading axis). Their solver memory (warm-start impulses, last contacts),
+        pending forces and joint reactions are cleared and their joint coordinates
+        refreshed; servo gains, targets and actuator controls are left as they are, and so
+        are the other worlds and the time. Validated first: nothing changes if refused.
+        This is how an environment resets the worlds whose episodes ended.
+        """
+        s = self._state
+        if worlds is None:
+            idx = np.arange(self.nworld)
+        else:
+            sel = np.asarray(worlds)
+            if sel.dtype == np.bool_:
+                if sel.shape != (self.nworld,):
+                    raise ModelError(f"set_body_state: a mask of worlds needs shape "
+                                     f"({self.nworld},), got {sel.shape}")
+                idx = np.flatnonzero(sel)
+            elif np.issubdtype(sel.dtype, np.integer) and sel.ndim <= 1:
+                idx = sel.reshape(-1).astype(np.int64)
+                if np.any((idx < 0) | (idx >= self.nworld)):
+                    raise ModelError(f"set_body_state: world indices must be in "
+                                     f"[0, {self.nworld}), got {idx.tolist()}")
+            else:
+                raise ModelError(f"set_body_state: worlds must be indices or a boolean mask, "
+                                 f"got {worlds!r}")
+        k, nb = len(idx), self.model.nbody
+        arrays = {}
+        for field, value, width in (("body_pos", body_pos, 3), ("body_quat", body_quat, 4),
+                                    ("body_vel", body_vel, 3), ("body_angvel", body_angvel, 3)):
+            a = np.asarray(value, dtype=float)
+            if a.shape == (nb, width) and k == 1:
+                a = a[None]
+            if a.shape != (k, nb, width):
+                raise StateError(f"set_body_state: {field} must have shape ({k}, {nb}, "
+                                 f"{width}), got {a.shape}")
+            bad = ~np.isfinite(a).all(axis=-1)
+            if bad.any():
+                w, b = np.argwhere(bad)[0]
+                raise StateError(f"set_body_state: {field} of body '{self.model.body_names[b]}' "
+                                 f"in world {int(idx[w])} is not finite")
+            arrays[field] = a
+        norm = np.linalg.norm(arrays["body_quat"], axis=-1, keepdims=True)
+        if np.any(norm < 1e-12):
+            w, b = np.argwhere(norm[..., 0] < 1e-12)[0]
+            raise StateError(f"set_body_state: body_quat of body '{self.model.body_names[b]}' "
+                             f"in world {int(idx[w])} is zero")
+        arrays["body_quat"] = arrays["body_quat"] / norm
+        for field, a in arrays.items():
+            getattr(s, field)[idx] = a
+        for field in ("applied_force", "applied_torque", "row_impulse", "joint_force",
+                      "joint_torque"):
+            getattr(s, field)[idx] = 0.0
+        s.contact_count[idx] = 0
+        self._contacts.impulse[idx] = 0.0
+        from .pipeline.joints.rows import joint_coordinates
+        for w in idx:
+            joint_coordinates(self.model.arrays, s.body_pos[w], s.body_quat[w], s.body_vel[w],
+                              s.body_angvel[w], s.joint_q[w], s.joint_qd[w], s.joint_qrel[w])
+
+    def ground_contacts(self, *, touching=1e-3):
+        """Which bodies touched the static world (the ground, terrain, static bodies) in the
+        last step: (nworld, nbody) bool, or (nbody,) for one world. A contact counts when
+        its surfaces overlap or are closer than ``touching`` (m), or it carried a force."""
+        s, c = self._state, self._contacts
+        n = c.depth.shape[1]
+        live = np.arange(n)[None, :] < s.contact_count[:, None]
+        live &= (c.depth > -touching) | (c.impulse[..., 0] > 0.0)
+        static = np.append(self.model.body_kind != DYNAMIC, True)    # index -1: the world
+        a, b = c.body[..., 0], c.body[..., 1]
+        out = np.zeros((self.nworld, self.model.nbody + 1), np.bool_)
+        w = np.broadcast_to(np.arange(self.nworld)[:, None], a.shape)
+        hit_a = live & static[b] & (a >= 0)
+        hit_b = live & static[a] & (b >= 0)
+        out[w[hit_a], a[hit_a]] = True
+        out[w[hit_b], b[hit_b]] = True
+        return self._view(out[:, :-1])
+
     def _checked_contacts(self, state):
         """(contact_count (nworld,), contacts or None) of ``state``, validated."""
         nw = self.nworld

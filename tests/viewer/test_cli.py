@@ -117,3 +117,57 @@ def test_view_serves_the_page_until_interrupted(tmp_path):
         if proc.poll() is None:
             proc.kill()
             proc.wait()
+
+
+def _untrained_policy_file(path):
+    """A policy file for the course walk with tiny random weights (actions near 0)."""
+    import numpy as np
+    from tumble.rl import ImitationEnv
+    from tumble.rl.policy import Policy
+    spec = ImitationEnv(1, "walk", contact="lcp").spec()
+    D, A = spec["observation_size"], spec["action_size"]
+    rng = np.random.default_rng(0)
+    Policy([1e-3 * rng.standard_normal((8, D)), 1e-3 * rng.standard_normal((A, 8))],
+           [np.zeros(8), np.zeros(A)], "elu", np.zeros(D), np.ones(D), 1e-8, spec).save(path)
+    return path
+
+
+def test_record_a_policy_and_play_it_in_the_viewer(tmp_path, capsys):
+    pytest.importorskip("viser")
+    policy = _untrained_policy_file(tmp_path / "walk.npz")
+    # tumble record runs the policy like any controller
+    assert main(["record", str(policy), str(tmp_path / "walk_rec.npz"), "--seconds", "0.5",
+                 "--fps", "30"]) == 0
+    rec = Recording.load(tmp_path / "walk_rec.npz")
+    assert len(rec) == 16 and rec.scene.nbody == 20
+    capsys.readouterr()
+    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""),
+               PYTHONFAULTHANDLER="1")
+    proc = subprocess.Popen([sys.executable, "-m", "tumble", "play", str(policy), "--port", "0"],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            env=env, cwd=ROOT,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    try:
+        url, lines = None, []
+        for line in proc.stdout:
+            lines.append(line)
+            if line.startswith("tumble viewer: open "):
+                url = line.split()[3]
+                break
+        assert url and url.startswith("http://127.0.0.1:"), "".join(lines)
+        assert any(l.startswith("tumble play: <tumble.rl.Policy: imitate walk") for l in lines)
+        with urllib.request.urlopen(url, timeout=10) as page:
+            assert page.status == 200 and b"<html" in page.read().lower()
+        proc.send_signal(signal.SIGINT)
+        try:
+            code = proc.wait(timeout=60)
+        except subprocess.TimeoutExpired:
+            proc.send_signal(signal.SIGABRT)
+            proc.wait(timeout=10)
+            raise AssertionError("tumble play did not stop on Ctrl-C within 60 s; it printed:\n"
+                                 + proc.stdout.read())
+        assert code == 0, proc.stdout.read()
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()

@@ -1,0 +1,111 @@
+"""Gymnasium facades of the batched tasks, registered when ``tumble.rl`` is imported.
+
+``gymnasium.make("tumble/Imitate-v0", clip="walk")`` gives :class:`ImitateEnv`, a single
+``gymnasium.Env`` (one world; call ``reset`` after an episode ends), and
+``gymnasium.make_vec("tumble/Imitate-v0", num_envs=N, vectorization_mode="vector_entry_point")``
+gives :class:`ImitateVectorEnv`, a ``gymnasium.vector.VectorEnv`` over one
+``World(nworld=N)`` in Gymnasium's same-step autoreset mode: when a world's episode ends,
+the observation returned is its new episode's first, ``infos["final_obs"]`` holds the ended
+episode's last observation (an (N, D) float32 array; rows where ``infos["_final_obs"]``)
+and ``infos["final_info"]`` its return and length. Keyword arguments go to
+:class:`~tumble.rl.tasks.imitation.ImitationEnv`.
+
+Seeds: ``reset(seed=s)`` makes everything after it repeat bit for bit (start phases;
+the physics is deterministic).
+"""
+import gymnasium
+import numpy as np
+from gymnasium import spaces
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from .kernels import BODY_OBS
+from .tasks.imitation import ImitationEnv
+
+__all__ = ["ImitateEnv", "ImitateVectorEnv", "register_envs", "observation_space"]
+
+IMITATE_ID = "tumble/Imitate-v0"
+
+
+def observation_space(task):
+    """The Box of one world's observation: unbounded positions and velocities, rotation axes
+    and the phase's sin and cos in [-1, 1]; float32."""
+    D = task.observation_size
+    low = np.full(D, -np.inf, np.float32)
+    high = np.full(D, np.inf, np.float32)
+    for b in range(task.model.nbody):
+        k = 1 + BODY_OBS * b + 3
+        low[k:k + 6], high[k:k + 6] = -1.0, 1.0
+    low[-2:], high[-2:] = -1.0, 1.0
+    return spaces.Box(low, high, dtype=np.float32)
+
+
+def action_space(task):
+    """The Box of one world's action: [-1, 1]^A, float32."""
+    return spaces.Box(-1.0, 1.0, (task.action_size,), dtype=np.float32)
+
+
+class ImitateEnv(gymnasium.Env):
+    """One character imitating a clip (``tumble/Imitate-v0``); see the module docs."""
+
+    metadata = {"render_modes": [], "render_fps": 30}
+
+    def __init__(self, clip="walk", **kwargs):
+        kwargs.setdefault("parallel", False)
+        self.task = ImitationEnv(1, clip, autoreset=False, **kwargs)
+        self.observation_space = observation_space(self.task)
+        self.action_space = action_space(self.task)
+        self.metadata = dict(self.metadata, render_fps=self.task.control_hz)
+
+    def reset(self, *, seed=None, options=None):
+        super().reset(seed=seed)
+        self.task.rng = self.np_random
+        obs = self.task.reset()
+        return obs[0], {"phase": float(self.task.phase[0])}
+
+    def step(self, action):
+        obs, reward, terminated, truncated, info = self.task.step(np.asarray(action)[None])
+        out = {"reward_terms": self.task.reward_terms[0], "phase": float(self.task.phase[0]),
+               "diverged": bool(info["diverged"][0])}
+        return obs[0], float(reward[0]), bool(terminated[0]), bool(truncated[0]), out
+
+
+class ImitateVectorEnv(VectorEnv):
+    """N characters imitating a clip in one batch of worlds; see the module docs."""
+
+    metadata = {"autoreset_mode": AutoresetMode.SAME_STEP, "render_modes": []}
+
+    def __init__(self, num_envs=1, clip="walk", **kwargs):
+        self.task = ImitationEnv(num_envs, clip, autoreset=True, **kwargs)
+        self.num_envs = int(num_envs)
+        self.single_observation_space = observation_space(self.task)
+        self.single_action_space = action_space(self.task)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self.metadata = dict(self.metadata, render_fps=self.task.control_hz)
+
+    def reset(self, *, seed=None, options=None):
+        super().reset(seed=seed)
+        self.task.rng = self.np_random
+        obs = self.task.reset()
+        return obs, {}
+
+    def step(self, actions):
+        obs, reward, terminated, truncated, info = self.task.step(actions)
+        infos = {"reward_terms": self.task.reward_terms}
+        done = info["done"]
+        if done.any():
+            infos["final_obs"] = info["final_obs"]
+            infos["_final_obs"] = done
+            infos["final_info"] = {"episode_return": info["episode_return"],
+                                   "episode_steps": info["episode_steps"]}
+            infos["_final_info"] = done
+        return obs, reward, terminated, truncated, infos
+
+
+def register_envs():
+    """Register ``tumble/Imitate-v0`` (idempotent)."""
+    if IMITATE_ID not in gymnasium.registry:
+        gymnasium.register(IMITATE_ID, entry_point="tumble.rl.gym:ImitateEnv",
+                           vector_entry_point="tumble.rl.gym:ImitateVectorEnv",
+                           kwargs={"clip": "walk"})

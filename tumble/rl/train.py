@@ -1,0 +1,425 @@
+"""Training: PPO from rsl-rl (``pip install "tumble[rl]"``) on tumble's batched tasks.
+
+Why rsl-rl: it is the PPO that Isaac Lab trains its locomotion policies with, written for
+many environments stepped as one batch (tensors of all worlds in, no per-world loop), small
+(a few thousand lines), with observation normalisation and an adaptive learning rate. skrl
+(which also has AMP) was the other candidate; its generic memory and wrapper layers cost
+more per step on two cores, and its AMP expects its own environment wrappers. What rsl-rl
+does not provide is written here: the bridge from tumble's NumPy arrays to its TensorDicts
+(zero-copy ``torch.from_numpy``), the training loop with a progress bar, CSV (and
+TensorBoard when installed) logs, periodic evaluation, checkpoints that resume from the
+learner's whole state (networks, normalisers, optimiser, counters and random generators;
+the episodes in flight start afresh), and the export of the actor to a PyTorch-free policy file (:class:`tumble.rl.policy.Policy`).
+
+Files written to ``out_dir``: ``checkpoint.pt`` (everything needed to resume: networks,
+optimiser, iteration, samples, wall time, random generators' states, configuration),
+``policy.npz`` (the latest actor), ``best.npz`` (the actor of the best evaluation),
+``progress.csv`` (one row per iteration), ``eval.csv`` (one row per evaluation) and
+``tb/`` (TensorBoard, if installed).
+"""
+import csv
+import dataclasses
+import json
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import ModelError
+from .policy import Policy
+from .tasks.imitation import REWARD_TERMS, ImitationEnv
+
+try:
+    import torch
+    from tensordict import TensorDict
+    from rsl_rl.algorithms import PPO
+    from rsl_rl.env import VecEnv
+except ImportError as exc:          # the optional extra is missing
+    raise ImportError('tumble.rl.train needs PyTorch and rsl-rl: pip install "tumble[rl]"') \
+        from exc
+
+__all__ = ["TrainConfig", "Trainer", "evaluate", "train"]
+
+
+@dataclass
+class TrainConfig:
+    """Everything a training run depends on (saved in its checkpoint).
+
+    Environment: clip, num_envs, control_hz, physics_hz, contact, episode_seconds, residual,
+    action_scale, env_kwargs (more ImitationEnv keywords).
+    PPO (rsl-rl): steps_per_env (rollout length), epochs, minibatches, learning_rate (adaptive
+    by the KL to ``desired_kl``), gamma, lam, clip, entropy_coef, init_std, hidden (MLP
+    sizes of actor and critic), activation. Why the small learning rate: with 45 action
+    dimensions at a standard deviation of 0.3, one Adam step of 3e-4 moves the policy by a
+    KL of 0.6 (measured on the walk), 30x the target; near 1e-5 the KL of a whole update
+    (20 minibatch steps) is about 0.03, the trust region PPO wants (AMP uses 2e-5).
+    Run: iterations, save_every, eval_every (iterations), eval_episodes, eval_seconds, seed,
+    threads (PyTorch's CPU threads; Numba's step uses all of its own).
+    """
+    task: str = "imitate"
+    clip: str = "walk"
+    num_envs: int = 128
+    control_hz: int = 30
+    physics_hz: int = 60
+    contact: str = "lcp"
+    episode_seconds: float = 10.0
+    residual: bool = True
+    action_scale: float = 0.5
+    env_kwargs: dict = field(default_factory=dict)
+    steps_per_env: int = 32
+    epochs: int = 5
+    minibatches: int = 4
+    learning_rate: float = 1e-5
+    desired_kl: float = 0.02
+    gamma: float = 0.95
+    lam: float = 0.95
+    clip_param: float = 0.2
+    entropy_coef: float = 0.0
+    init_std: float = 0.4
+    hidden: tuple = (512, 256)
+    activation: str = "elu"
+    iterations: int = 1000
+    save_every: int = 20
+    eval_every: int = 50
+    eval_episodes: int = 32
+    eval_seconds: float = 20.0
+    seed: int = 0
+    threads: int = 2
+
+    def env_options(self):
+        return dict(control_hz=self.control_hz, physics_hz=self.physics_hz,
+                    contact=self.contact, residual=self.residual,
+                    action_scale=self.action_scale, **self.env_kwargs)
+
+    def to_dict(self):
+        d = dataclasses.asdict(self)
+        d["hidden"] = list(self.hidden)
+        return d
+
+    @classmethod
+    def from_dict(cls, d):
+        d = dict(d)
+        d["hidden"] = tuple(d.get("hidden", cls.hidden))
+        known = {f.name for f in dataclasses.fields(cls)}
+        return cls(**{k: v for k, v in d.items() if k in known})
+
+
+class _TorchVecEnv(VecEnv):
+    """rsl-rl's view of a tumble BatchedEnv: observations as a TensorDict group 'policy'
+    (shared memory with the NumPy arrays), time-outs in ``extras`` for bootstrapping, the
+    reward terms' means in ``extras['log']``."""
+
+    def __init__(self, env, episode_steps):
+        self.env = env
+        self.num_envs = env.num_envs
+        self.num_actions = env.action_size
+        self.max_episode_length = episode_steps
+        self.episode_length_buf = torch.zeros(self.num_envs, dtype=torch.long)
+        self.device = "cpu"
+        self.cfg = {}
+        self._obs = None
+
+    def _wrap(self, obs):
+        return TensorDict({"policy": torch.from_numpy(obs)}, batch_size=[self.num_envs])
+
+    def reset(self):
+        self._obs = self.env.reset()
+        return self._wrap(self._obs)
+
+    def get_observations(self):
+        if self._obs is None:
+            return self.reset()
+        return self._wrap(self._obs)
+
+    def step(self, actions):
+        obs, reward, terminated, truncated, info = self.env.step(actions.numpy())
+        self._obs = obs
+        self.last_info = info
+        self.episode_length_buf = torch.from_numpy(self.env.episode_steps)
+        dones = torch.from_numpy(terminated | truncated)
+        terms = self.env.reward_terms
+        extras = {"time_outs": torch.from_numpy(truncated),
+                  "log": {f"/reward/{n}": float(terms[:, k].mean())
+                          for k, n in enumerate(REWARD_TERMS)}}
+        return (self._wrap(obs), torch.from_numpy(reward.astype(np.float32)), dones, extras)
+
+
+def _make_env(config, num_envs, *, seed, episode_seconds, autoreset=True):
+    return ImitationEnv(num_envs, config.clip, episode_seconds=episode_seconds, seed=seed,
+                        autoreset=autoreset, **config.env_options())
+
+
+def export_policy(alg, spec, info=None):
+    """The deterministic actor of an rsl-rl PPO as a :class:`Policy`."""
+    actor = alg.get_policy()
+    layers = [m for m in actor.mlp if isinstance(m, torch.nn.Linear)]
+    norm = actor.obs_normalizer
+    if isinstance(norm, torch.nn.Identity):
+        D = layers[0].in_features
+        mean, std, eps = np.zeros(D), np.ones(D), 0.0
+    else:
+        mean = norm._mean.squeeze(0).double().numpy()
+        std = norm._std.squeeze(0).double().numpy()
+        eps = float(norm.eps)
+    act = type(actor.mlp[1]).__name__.lower()
+    return Policy([l.weight.detach().double().numpy() for l in layers],
+                  [l.bias.detach().double().numpy() for l in layers], act, mean, std, eps,
+                  spec, info)
+
+
+def evaluate(policy, config=None, *, episodes=32, seconds=20.0, seed=12345, env=None):
+    """Roll ``policy`` (a :class:`Policy`) out from random clip phases until every world's
+    first episode ends (a fall or ``seconds``). Returns a dict: survived (fraction of
+    episodes that reached the time limit), mean_seconds (time before the end), mean_error
+    (m, root-relative body position error over all steps of all episodes while alive),
+    body_error (per body, m), mean_reward (per step)."""
+    if env is None:
+        env = _make_env(config, episodes, seed=seed, episode_seconds=seconds)
+    policy.check(env.spec())
+    obs = env.reset(seed=seed)
+    N = env.num_envs
+    active = np.ones(N, np.bool_)
+    survived = np.zeros(N, np.bool_)
+    alive_steps = np.zeros(N)
+    err_sum = np.zeros(env.model.nbody)
+    err_count = 0
+    rew_sum, rew_count = 0.0, 0
+    for _ in range(env.max_episode_steps + 1):
+        obs, reward, terminated, truncated, info = env.step(policy.act(obs))
+        err = env.body_position_error()
+        live = active & ~info["done"]
+        err_sum += err[live].sum(axis=0)
+        err_count += int(live.sum())
+        rew_sum += float(reward[active].sum())
+        rew_count += int(active.sum())
+        alive_steps[active] += 1
+        survived |= active & truncated
+        active &= ~info["done"]
+        if not active.any():
+            break
+    body_error = err_sum / max(err_count, 1)
+    return {"survived": float(survived.mean()), "mean_seconds": float(alive_steps.mean() * env.dt),
+            "mean_error": float(body_error.mean()), "body_error": body_error.tolist(),
+            "mean_reward": rew_sum / max(rew_count, 1), "episodes": N}
+
+
+class Trainer:
+    """A PPO training run in ``out_dir`` (see the module docs); ``run()`` trains,
+    ``Trainer(out_dir, resume=True)`` picks a run up from its checkpoint."""
+
+    def __init__(self, out_dir, config=None, *, resume=False, progress=True, log=print):
+        self.out_dir = Path(out_dir)
+        self.out_dir.mkdir(parents=True, exist_ok=True)
+        self.progress = progress
+        self.log = log
+        ckpt_path = self.out_dir / "checkpoint.pt"
+        saved = None
+        if resume and ckpt_path.exists():
+            saved = torch.load(ckpt_path, weights_only=False, map_location="cpu")
+            stored = TrainConfig.from_dict(saved["config"])
+            if config is not None:       # iterations and schedule may change on resume
+                stored.iterations = config.iterations
+                stored.save_every, stored.eval_every = config.save_every, config.eval_every
+            config = stored
+        elif resume:
+            raise ModelError(f"train: nothing to resume in {str(self.out_dir)!r} (no "
+                             f"checkpoint.pt)")
+        self.config = config or TrainConfig()
+        c = self.config
+        torch.set_num_threads(c.threads)
+        torch.manual_seed(c.seed)
+        self.env = _make_env(c, c.num_envs, seed=c.seed, episode_seconds=c.episode_seconds)
+        self.vec = _TorchVecEnv(self.env, self.env.max_episode_steps)
+        cfg = {
+            "num_steps_per_env": c.steps_per_env, "obs_groups": {"actor": ["policy"],
+                                                                 "critic": ["policy"]},
+            "multi_gpu": None,
+            "algorithm": {"class_name": "PPO", "num_learning_epochs": c.epochs,
+                          "num_mini_batches": c.minibatches, "learning_rate": c.learning_rate,
+                          "schedule": "adaptive", "desired_kl": c.desired_kl, "gamma": c.gamma,
+                          "lam": c.lam, "clip_param": c.clip_param,
+                          "entropy_coef": c.entropy_coef, "max_grad_norm": 1.0,
+                          "value_loss_coef": 1.0, "use_clipped_value_loss": True},
+            "actor": {"class_name": "MLPModel", "hidden_dims": list(c.hidden),
+                      "activation": c.activation, "obs_normalization": True,
+                      "distribution_cfg": {"class_name": "GaussianDistribution",
+                                           "init_std": c.init_std}},
+            "critic": {"class_name": "MLPModel", "hidden_dims": list(c.hidden),
+                       "activation": c.activation, "obs_normalization": True},
+        }
+        obs = self.vec.get_observations()
+        import contextlib
+        import io
+        with contextlib.redirect_stdout(io.StringIO()):     # rsl-rl prints the networks
+            self.alg = PPO.construct_algorithm(obs, self.vec, cfg, "cpu")
+        self.iteration = 0
+        self.samples = 0
+        self.wall = 0.0
+        self.best = -np.inf
+        if saved is not None:
+            self.alg.load(saved["alg"], None, True)
+            self.iteration = saved["iteration"]
+            self.samples = saved["samples"]
+            self.wall = saved["wall"]
+            self.best = saved.get("best", -np.inf)
+            torch.set_rng_state(saved["torch_rng"])
+            self.env.rng.bit_generator.state = saved["env_rng"]
+            self.log(f"resumed {self.out_dir} at iteration {self.iteration} "
+                     f"({self.samples} samples, {self.wall / 3600:.2f} h)")
+        else:
+            self._warm_up_normalizers()
+        self._writer = None
+        try:
+            from torch.utils.tensorboard import SummaryWriter
+            self._writer = SummaryWriter(str(self.out_dir / "tb"))
+        except ImportError:
+            pass
+
+    def _warm_up_normalizers(self):
+        """One rollout of the initial policy fills the observation normalisers before the
+        first update: rsl-rl updates them after each update, so the first one would
+        otherwise see raw observations (velocities of tens of rad/s) and take a step whose
+        KL divergence is 50x the target, which the adaptive learning rate then pays for."""
+        self.alg.train_mode()
+        seen = []
+        with torch.inference_mode():
+            obs = self.vec.get_observations()
+            for _ in range(self.config.steps_per_env):
+                seen.append(obs["policy"].clone())
+                obs, _, _, _ = self.vec.step(self.alg.actor(obs, stochastic_output=True))
+        data = torch.cat(seen).clone()
+        batch = TensorDict({"policy": data}, batch_size=[data.shape[0]])
+        self.alg.actor.update_normalization(batch)
+        self.alg.critic.update_normalization(batch)
+
+    def spec(self):
+        s = self.env.spec()
+        s["episode_seconds"] = self.config.episode_seconds
+        return s
+
+    def policy(self):
+        """The current deterministic actor as a Policy."""
+        return export_policy(self.alg, self.spec(), {
+            "iteration": self.iteration, "samples": self.samples, "wall_hours": self.wall / 3600,
+            "trained_with": "rsl-rl PPO", "config": self.config.to_dict()})
+
+    def save(self):
+        """checkpoint.pt (atomically) and policy.npz."""
+        state = {"alg": self.alg.save(), "iteration": self.iteration, "samples": self.samples,
+                 "wall": self.wall, "best": self.best, "config": self.config.to_dict(),
+                 "torch_rng": torch.get_rng_state(), "env_rng": self.env.rng.bit_generator.state,
+                 "spec": self.spec()}
+        tmp = self.out_dir / "checkpoint.pt.tmp"
+        torch.save(state, tmp)
+        os.replace(tmp, self.out_dir / "checkpoint.pt")
+        self.policy().save(self.out_dir / "policy.npz")
+
+    def _csv(self, name, row):
+        path = self.out_dir / name
+        new = not path.exists()
+        with open(path, "a", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=list(row))
+            if new:
+                w.writeheader()
+            w.writerow(row)
+        if self._writer is not None:
+            for k, v in row.items():
+                if k not in ("iteration",) and isinstance(v, (int, float)):
+                    self._writer.add_scalar(f"{Path(name).stem}/{k}", v, row["iteration"])
+
+    def evaluate(self):
+        c = self.config
+        result = evaluate(self.policy(), c, episodes=c.eval_episodes, seconds=c.eval_seconds)
+        row = {"iteration": self.iteration, "samples": self.samples, "wall_hours": self.wall / 3600,
+               **{k: v for k, v in result.items() if k != "body_error"}}
+        self._csv("eval.csv", row)
+        score = result["survived"] - result["mean_error"]
+        if score > self.best:
+            self.best = score
+            self.policy().save(self.out_dir / "best.npz")
+        return result
+
+    def run(self, iterations=None, *, max_hours=None):
+        """Train until ``iterations`` (default: the config's) in all, or until this call has
+        run ``max_hours`` of wall time (then saves); returns the last evaluation (or None)."""
+        c = self.config
+        total = c.iterations if iterations is None else iterations
+        deadline = None if max_hours is None else time.perf_counter() + 3600.0 * max_hours
+        bar = None
+        if self.progress:
+            try:
+                from tqdm import tqdm
+                bar = tqdm(total=total, initial=self.iteration, unit="it", dynamic_ncols=True)
+            except ImportError:
+                bar = None
+        obs = self.vec.get_observations()
+        self.alg.train_mode()
+        last_eval = None
+        ep_returns, ep_steps = [], []
+        while self.iteration < total:
+            start = time.perf_counter()
+            with torch.inference_mode():
+                terms = np.zeros(5)
+                rewards = 0.0
+                for _ in range(c.steps_per_env):
+                    actions = self.alg.act(obs)
+                    obs, reward, dones, extras = self.vec.step(actions)
+                    self.alg.process_env_step(obs, reward, dones, extras)
+                    rewards += float(reward.mean())
+                    terms += [extras["log"][f"/reward/{n}"] for n in REWARD_TERMS]
+                    info = self.vec.last_info
+                    if "episode_return" in info:
+                        done = info["done"]
+                        ep_returns.extend(info["episode_return"][done].tolist())
+                        ep_steps.extend(info["episode_steps"][done].tolist())
+                collect = time.perf_counter() - start
+                self.alg.compute_returns(obs)
+            t1 = time.perf_counter()
+            losses = self.alg.update()
+            learn = time.perf_counter() - t1
+            n = c.steps_per_env * c.num_envs
+            self.samples += n
+            self.iteration += 1
+            self.wall += time.perf_counter() - start
+            row = {"iteration": self.iteration, "samples": self.samples,
+                   "wall_hours": round(self.wall / 3600, 5),
+                   "reward": rewards / c.steps_per_env,
+                   "episode_return": float(np.mean(ep_returns[-200:])) if ep_returns else np.nan,
+                   "episode_seconds": float(np.mean(ep_steps[-200:])) * self.env.dt if ep_steps else np.nan,
+                   **{f"r_{name}": terms[k] / c.steps_per_env for k, name in enumerate(REWARD_TERMS)},
+                   **{f"loss_{k}": float(v) for k, v in losses.items()},
+                   "learning_rate": float(self.alg.learning_rate),
+                   "action_std": float(self.alg.get_policy().output_std.detach().mean()),
+                   "collect_s": collect, "learn_s": learn, "samples_per_s": n / (collect + learn)}
+            ep_returns, ep_steps = ep_returns[-200:], ep_steps[-200:]
+            self._csv("progress.csv", row)
+            if bar is not None:
+                bar.set_postfix(r=f"{row['reward']:.3f}", ep=f"{row['episode_seconds']:.1f}s",
+                                sps=f"{row['samples_per_s']:.0f}")
+                bar.update(1)
+            elif self.log and self.iteration % 10 == 0:
+                self.log(f"it {self.iteration}: reward {row['reward']:.3f}, episode "
+                         f"{row['episode_seconds']:.1f} s, {row['samples_per_s']:.0f} samples/s")
+            out_of_time = deadline is not None and time.perf_counter() > deadline
+            if self.iteration % c.save_every == 0 or self.iteration == total or out_of_time:
+                self.save()
+            if c.eval_every and (self.iteration % c.eval_every == 0 or self.iteration == total):
+                last_eval = self.evaluate()
+                self.log(f"eval at {self.iteration}: survived {last_eval['survived']:.2f}, "
+                         f"error {last_eval['mean_error'] * 1000:.1f} mm, "
+                         f"{last_eval['mean_seconds']:.1f} s")
+                self.alg.train_mode()
+            if out_of_time:
+                break
+        if bar is not None:
+            bar.close()
+        return last_eval
+
+
+def train(out_dir, config=None, *, resume=False, progress=True, log=print, max_hours=None):
+    """Train (or resume) a run in ``out_dir``; returns the Trainer after it finished."""
+    t = Trainer(out_dir, config, resume=resume, progress=progress, log=log)
+    t.run(max_hours=max_hours)
+    return t
