@@ -230,3 +230,22 @@ def test_wrong_arguments_are_refused(ragdoll, walk):
         ReferenceMotion(ragdoll.model, walk)
     with pytest.raises(tumble.ModelError, match="Motion"):
         ReferenceMotion(ragdoll, "walk")
+
+
+def test_ground_lift_puts_the_stance_foot_on_the_ground():
+    """The course walk's foot boxes sit up to 4 cm inside the ground as captured; placed on
+    the ground, no frame's lowest colliding point is below it and stance frames touch it."""
+    from tumble.rl.reference import lowest_points
+    rd = tumble.games105_ragdoll()
+    motion = tumble.load_bvh(clip_path("walk"))
+    raw = ReferenceMotion(rd, motion, ground=False)
+    placed = ReferenceMotion(rd, motion)
+    low_raw = lowest_points(rd.model, raw.frames.body_pos, raw.frames.body_quat, 1)
+    low = lowest_points(rd.model, placed.frames.body_pos, placed.frames.body_quat, 1)
+    assert low_raw.min() < -0.03                     # as captured: 3-4 cm deep
+    assert low.min() > -1e-9
+    assert np.mean(np.abs(low) < 1e-9) > 0.8         # most frames touch the ground
+    np.testing.assert_allclose(placed.ground_lift, np.maximum(-low_raw, 0.0), atol=1e-12)
+    # only heights move
+    d = placed.frames.body_pos - raw.frames.body_pos
+    np.testing.assert_allclose(d[..., [0, 2]], 0.0, atol=1e-12)

@@ -26,7 +26,7 @@ from ..math import quat_np as Q
 from ..character.pose import _body_poses, _motion_index, _skeleton_globals, rest_alignment
 from ..character.ragdoll import Ragdoll
 
-__all__ = ["ReferenceMotion", "ReferenceFrames", "cycle_end_frame"]
+__all__ = ["ReferenceMotion", "ReferenceFrames", "cycle_end_frame", "lowest_points"]
 
 # Where the cycle end is looked for: the last part of the clip (fraction of its frames).
 _LOOP_SEARCH_FROM = 0.6
@@ -82,6 +82,37 @@ def _close_cycle(motion, K, up):
     return lr, root_pos, offset
 
 
+def lowest_points(model, body_pos, body_quat, up):
+    """(F,) height along axis ``up`` of the lowest point of the colliding geoms (sphere,
+    capsule, box, cylinder) of the model's bodies, for F poses ``body_pos`` (F, nb, 3) and
+    ``body_quat`` (F, nb, 4) (COM frames, world)."""
+    from ..model.model import GEOM_TYPES
+    low = np.full(len(body_pos), np.inf)
+    for g in range(model.ngeom):
+        b = model.geom_body[g]
+        if b < 0 or (model.geom_contype[g] == 0 and model.geom_conaffinity[g] == 0):
+            continue
+        centre = body_pos[:, b] + Q.qrot(body_quat[:, b], model.geom_pos[g])
+        rot = Q.qmul(body_quat[:, b], model.geom_quat[g])
+        size = model.geom_size[g]
+        kind = model.geom_type[g]
+        # the geom's local axes seen along the vertical: their up components (F, 3)
+        axes_up = np.stack([Q.qrot(rot, e)[:, up] for e in np.eye(3)], axis=-1)
+        if kind == GEOM_TYPES["sphere"]:
+            reach = np.full(len(centre), size[0])
+        elif kind == GEOM_TYPES["capsule"]:
+            reach = size[0] + size[1] * np.abs(axes_up[:, 2])
+        elif kind == GEOM_TYPES["box"]:
+            reach = np.abs(axes_up) @ size[:3]
+        elif kind == GEOM_TYPES["cylinder"]:
+            tilt = np.sqrt(np.clip(1.0 - axes_up[:, 2] ** 2, 0.0, 1.0))
+            reach = size[1] * np.abs(axes_up[:, 2]) + size[0] * tilt
+        else:
+            continue
+        low = np.minimum(low, centre[:, up] - reach)
+    return low
+
+
 class ReferenceFrames:
     """Reference states at frames 0..K (K + 1 entries; frame K is the next cycle's frame 0
     when looped). Arrays, world frame:
@@ -111,6 +142,12 @@ class ReferenceMotion:
     motion : a :class:`~tumble.Motion` with every joint of the ragdoll (matched by name).
     loop : True to close the clip into a cycle (see the module docs), False to play it once,
         or an int K to end the cycle at frame K.
+    ground : place the clip on the ground (the plane through the origin normal to gravity):
+        in every frame whose lowest colliding point (of the ragdoll's geoms) is below it, the
+        whole character is lifted by that much. A mocap skeleton's feet rarely match its
+        ragdoll's foot boxes: the course walk's stance foot is 0 to 4 cm inside the ground,
+        which the contacts would push out at every start. Frames in the air (a run's flight)
+        are left as they are. ``ground_lift`` (K+1,) holds the lifts (m).
 
     Attributes: ``frame_time`` (s), ``num_frames`` (K: frames of one cycle, or of the clip
     minus one when not looped), ``period`` (s, K frame times), ``cycle_offset`` (3,) m,
@@ -118,7 +155,7 @@ class ReferenceMotion:
     cycle ends at).
     """
 
-    def __init__(self, ragdoll, motion, *, loop=True):
+    def __init__(self, ragdoll, motion, *, loop=True, ground=True):
         where = "ReferenceMotion"
         if not isinstance(ragdoll, Ragdoll):
             raise ModelError(f"{where}: needs a tumble Ragdoll, got {type(ragdoll).__name__}")
@@ -169,6 +206,12 @@ class ReferenceMotion:
         q = np.empty((K + 1, nb, 4))
         x[:, ragdoll.body_index] = x_s
         q[:, ragdoll.body_index] = q_s
+        self.ground_lift = np.zeros(K + 1)
+        if ground:
+            self.ground_lift = np.maximum(-lowest_points(model, x, q, self.up), 0.0)
+            if self.looped:          # frame K is frame 0 of the next cycle
+                self.ground_lift[K] = self.ground_lift[0]
+            x[:, :, self.up] += self.ground_lift[:, None]
         # make consecutive quaternions share a hemisphere so interpolation takes the short arc
         for k in range(1, K + 1):
             flip = np.sum(q[k] * q[k - 1], axis=-1) < 0.0
