@@ -40,6 +40,11 @@ STEP_FREE = [
     "tests/viewer/test_examples.py",
     "tests/rl/test_reference.py",
     "tests/rl/test_policy.py",
+    "tests/io/test_fuzz_mjcf.py",
+    "tests/io/test_fuzz_bvh.py",
+    "tests/io/test_fuzz_urdf.py",
+    "tests/io/test_fuzz_mesh.py",
+    "tests/test_hardening.py",
 ]
 
 

@@ -151,6 +151,9 @@ class State:
     (nworld, nactuator); the body servos: body_servo (nworld, nbody, 4), body_target_pos,
     body_target_vel, body_target_angvel (nworld, nbody, 3), body_target_quat (nworld, nbody,
     4) (all left as the world has them when None).
+    body_names, joint_names: the names of the model's bodies and joints (tuples), which
+    ``get_state`` records so that ``set_state`` refuses the state of another model even
+    when its arrays have the same shapes (None: not checked, e.g. a State written by hand).
     """
     time: float
     body_pos: np.ndarray
@@ -178,6 +181,8 @@ class State:
     body_target_angvel: np.ndarray = None
     contact_count: np.ndarray = None
     contacts: ContactArrays = None
+    body_names: tuple = None
+    joint_names: tuple = None
 
 
 # Fields of State past the body state, each a copy of the StateArrays field of that name.
@@ -502,13 +507,32 @@ class World:
         contacts = ContactArrays(*(a[:, :n].copy() for a in self._contacts))
         return State(self.time, s.body_pos.copy(), s.body_quat.copy(), s.body_vel.copy(),
                      s.body_angvel.copy(), contact_count=s.contact_count.copy(),
-                     contacts=contacts, **{f: getattr(s, f).copy() for f in _EXTRA_STATE})
+                     contacts=contacts, body_names=tuple(self.model.body_names),
+                     joint_names=tuple(self.model.joint_names),
+                     **{f: getattr(s, f).copy() for f in _EXTRA_STATE})
 
     def set_state(self, state):
         """Restore a ``State`` from ``get_state`` (validated; nothing changes if refused).
 
-        Fields left None are reset: zero impulses, forces and motor targets, no contacts."""
+        Fields left None are reset: zero impulses, forces and motor targets, no contacts.
+        A state that names its model's bodies and joints (``get_state`` records them) must
+        name this world's, else StateError names the difference."""
         s = self._state
+        for what, saved, mine in (("bodies", getattr(state, "body_names", None),
+                                   self.model.body_names),
+                                  ("joints", getattr(state, "joint_names", None),
+                                   self.model.joint_names)):
+            if saved is None:
+                continue
+            try:
+                saved = [str(n) for n in saved]
+            except TypeError:
+                raise StateError(f"set_state: the state's {what[:-1]} names must be a sequence "
+                                 f"of names, got {type(saved).__name__}") from None
+            if saved != list(mine):
+                raise StateError(f"set_state: the state belongs to a model with {len(saved)} "
+                                 f"{what} {_names_preview(saved)}; this world's model has "
+                                 f"{len(mine)} {what} {_names_preview(mine)}")
         arrays = {}
         for field in ("body_pos", "body_quat", "body_vel", "body_angvel") + _EXTRA_STATE:
             value = getattr(state, field, None)
@@ -518,7 +542,13 @@ class World:
                 if field not in _DRIVE_STATE:
                     arrays[field] = np.zeros_like(getattr(s, field))
                 continue
-            a = np.asarray(value, dtype=float)
+            try:
+                if np.iscomplexobj(value):
+                    raise TypeError
+                a = np.asarray(value, dtype=float)
+            except (TypeError, ValueError):
+                raise StateError(f"set_state: {field} must be an array of real numbers, got "
+                                 f"{type(value).__name__}") from None
             if a.shape != getattr(s, field).shape:
                 raise StateError(f"set_state: {field} has shape {a.shape}, this world needs "
                                  f"{getattr(s, field).shape}")
@@ -528,7 +558,13 @@ class World:
             arrays[field] = a
         if np.any(np.linalg.norm(arrays["body_quat"], axis=-1) < 1e-12):
             raise StateError("set_state: body_quat has a zero quaternion")
-        time = float(state.time)
+        t = getattr(state, "time", None)
+        try:
+            if isinstance(t, (str, bytes)):
+                raise TypeError
+            time = float(np.asarray(t, dtype=float).reshape(()))
+        except (TypeError, ValueError):
+            raise StateError(f"set_state: time must be a number (s), got {t!r}") from None
         if not np.isfinite(time):
             raise StateError("set_state: time is not finite")
         count, contacts = self._checked_contacts(state)
@@ -636,7 +672,7 @@ class World:
             raise StateError("set_state: contact_count and contacts go together")
         count = np.asarray(state.contact_count)
         if count.shape != (nw,) or not np.issubdtype(count.dtype, np.integer) or \
-                np.any(count < 0):
+                np.any(count < 0) or np.any(count > np.iinfo(np.int64).max):
             raise StateError(f"set_state: contact_count must be {nw} integers >= 0")
         if not isinstance(state.contacts, ContactArrays):
             raise StateError("set_state: contacts must be a ContactArrays")
@@ -644,13 +680,30 @@ class World:
         out = []
         for field, mine, saved in zip(ContactArrays._fields, self._contacts, state.contacts):
             a = np.asarray(saved)
+            if a.dtype.kind not in "biuf":
+                raise StateError(f"set_state: contacts.{field} must be numbers, got dtype "
+                                 f"{a.dtype}")
             shape = (nw, a.shape[1] if a.ndim > 1 else -1) + mine.shape[2:]
             if a.ndim != mine.ndim or a.shape != shape or a.shape[1] < n:
                 raise StateError(f"set_state: contacts.{field} has shape {a.shape}, expected "
                                  f"({nw}, >= {n}){''.join(f', {d}' for d in mine.shape[2:])}")
             if a.dtype.kind == "f" and not np.all(np.isfinite(a)):
                 raise StateError(f"set_state: contacts.{field} is not finite")
-            out.append(a.astype(mine.dtype, copy=False))
+            out.append(a)
+        if len({a.shape[1] for a in out}) > 1:
+            raise StateError(f"set_state: the contacts arrays hold different numbers of "
+                             f"contacts: {[a.shape[1] for a in out]}")
+        # the live contacts (the first count of each world) must be this model's geoms and
+        # their bodies: the step and the queries index arrays with them
+        geom, body = out[0], out[1]
+        live = np.arange(geom.shape[1])[None, :] < count[:, None]
+        g, b = geom[live], body[live]
+        if np.any((g < 0) | (g >= self.model.ngeom)) or np.any(g != np.floor(g)):
+            raise StateError(f"set_state: contacts.geom holds geom indices outside "
+                             f"[0, {self.model.ngeom})")
+        if np.any(b != np.asarray(self.model.geom_body)[g.astype(np.int64)]):
+            raise StateError("set_state: contacts.body is not the bodies of contacts.geom")
+        out = [a.astype(mine.dtype, copy=False) for a, mine in zip(out, self._contacts)]
         return count.astype(np.int64), ContactArrays(*out)
 
     def save_state(self, path):
@@ -670,51 +723,96 @@ class World:
                     **{f: getattr(st, f) for f in ("body_pos", "body_quat", "body_vel",
                                                    "body_angvel") + _EXTRA_STATE},
                     **{"contact_" + f: a for f, a in zip(ContactArrays._fields, st.contacts)})
-        np.savez(_npz_path(path), **data)
+        from .io._files import MissingFileError
+        target = _npz_path(path)
+        if "\x00" in str(target):
+            raise ModelError(f"save_state: the path {str(target)!r} holds a NUL byte, which no "
+                             f"file name can")
+        try:
+            np.savez(target, **data)
+        except FileNotFoundError:
+            raise MissingFileError(f"save_state: cannot write '{target}': no such "
+                                   f"folder") from None
+        except OSError as e:
+            raise ModelError(f"save_state: cannot write '{target}': {e.strerror or e}") from None
 
     def load_state(self, path):
         """Restore a state written by ``save_state`` (bit-exact; nothing changes if refused).
 
         Raises StateError naming the file when it was saved from a model with other bodies
-        or joints (names, count or order), another number of worlds, or is not a state file.
+        or joints (names, count or order), another number of worlds, or is not a state file
+        (not an ``.npz``, truncated, a field of the wrong type or shape, larger than
+        ``tumble.io._files.MAX_STATE_BYTES`` unpacked); a missing file raises a StateError
+        that is also a FileNotFoundError.
         """
+        from .io._files import MAX_STATE_BYTES, MissingStateFileError, mib
         path = _npz_path(path)
         name = getattr(path, "name", path)
+        if "\x00" in str(path):
+            raise StateError(f"load_state: the path {str(path)!r} holds a NUL byte, which no "
+                             f"file name can")
         try:
             with np.load(path, allow_pickle=False) as f:
+                unpacked = sum(i.file_size for i in f.zip.infolist())
+                if unpacked > MAX_STATE_BYTES:
+                    raise StateError(f"load_state: {name} unpacks to {mib(unpacked)}, more than "
+                                     f"the {mib(MAX_STATE_BYTES)} tumble reads "
+                                     f"(tumble.io._files.MAX_STATE_BYTES)")
                 data = {k: f[k] for k in f.files}
-        except (OSError, ValueError) as exc:
-            if isinstance(exc, FileNotFoundError):
-                raise
-            raise StateError(f"load_state: {name} is not a tumble state file ({exc})") from None
+        except FileNotFoundError:
+            raise MissingStateFileError(f"load_state: no file {name}") from None
+        except StateError:
+            raise
+        except Exception as exc:        # whatever NumPy and zipfile make of a foreign file
+            raise StateError(f"load_state: {name} is not a tumble state file "
+                             f"({type(exc).__name__}: {exc})") from None
         if "format_version" not in data or "body_names" not in data:
             raise StateError(f"load_state: {name} is not a tumble state file")
-        if int(data["format_version"]) != _STATE_FILE_VERSION:
-            raise StateError(f"load_state: {name} has format version "
-                             f"{int(data['format_version'])}, this tumble reads "
-                             f"{_STATE_FILE_VERSION}")
-        for what, saved, mine in (("bodies", [str(n) for n in data["body_names"]],
-                                   self.model.body_names),
-                                  ("joints", [str(n) for n in data["joint_names"]],
-                                   self.model.joint_names)):
+
+        def field(key):
+            if key not in data:
+                raise StateError(f"load_state: {name} lacks the field '{key}'")
+            return data[key]
+
+        def scalar(key, kinds, what):
+            a = field(key)
+            if a.shape != () or a.dtype.kind not in kinds:
+                raise StateError(f"load_state: {name}: field '{key}' must be {what}, got "
+                                 f"{a.dtype} of shape {a.shape}")
+            return a[()]
+
+        def names(key):
+            a = field(key)
+            if a.ndim != 1 or a.dtype.kind != "U":
+                raise StateError(f"load_state: {name}: field '{key}' must be a list of names, "
+                                 f"got {a.dtype} of shape {a.shape}")
+            return [str(n) for n in a]
+
+        version = int(scalar("format_version", "iu", "an integer"))
+        if version != _STATE_FILE_VERSION:
+            raise StateError(f"load_state: {name} has format version {version}, this tumble "
+                             f"reads {_STATE_FILE_VERSION}")
+        for what, saved, mine in (("bodies", names("body_names"), self.model.body_names),
+                                  ("joints", names("joint_names"), self.model.joint_names)):
             if saved != list(mine):
                 raise StateError(f"load_state: {name} belongs to a model with {len(saved)} "
                                  f"{what} {_names_preview(saved)}; this world's model has "
                                  f"{len(mine)} {what} {_names_preview(mine)}")
-        if int(data["nrow"]) != self.model.nrow:
-            raise StateError(f"load_state: {name} has {int(data['nrow'])} joint rows, this "
+        nrow = int(scalar("nrow", "iu", "an integer"))
+        if nrow != self.model.nrow:
+            raise StateError(f"load_state: {name} has {nrow} joint rows, this "
                              f"model {self.model.nrow} (different joint types)")
-        if int(data["nworld"]) != self.nworld:
-            raise StateError(f"load_state: {name} holds {int(data['nworld'])} worlds, this "
+        nworld = int(scalar("nworld", "iu", "an integer"))
+        if nworld != self.nworld:
+            raise StateError(f"load_state: {name} holds {nworld} worlds, this "
                              f"world has nworld={self.nworld}")
-        try:
-            contacts = ContactArrays(*(data["contact_" + f] for f in ContactArrays._fields))
-            state = State(float(data["time"]), contact_count=data["contact_count"],
-                          contacts=contacts,
-                          **{f: data[f] for f in ("body_pos", "body_quat", "body_vel",
-                                                  "body_angvel") + _EXTRA_STATE})
-        except KeyError as exc:
-            raise StateError(f"load_state: {name} lacks the field {exc}") from None
+        time = float(scalar("time", "iuf", "a number (s)"))
+        contacts = ContactArrays(*(field("contact_" + f) for f in ContactArrays._fields))
+        state = State(time, contact_count=field("contact_count"), contacts=contacts,
+                      body_names=tuple(self.model.body_names),
+                      joint_names=tuple(self.model.joint_names),
+                      **{f: field(f) for f in ("body_pos", "body_quat", "body_vel",
+                                               "body_angvel") + _EXTRA_STATE})
         try:
             self.set_state(state)
         except StateError as exc:
@@ -729,8 +827,9 @@ class World:
         invalid, and SimulationError (naming the body and step) if the simulation
         diverges; in both cases the world is left as it was before the call.
         """
-        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
-            raise ModelError(f"step: n must be a non-negative integer, got {n!r}")
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0 \
+                or n > np.iinfo(np.int64).max:
+            raise ModelError(f"step: n must be a non-negative integer below 2**63, got {n!r}")
         if n == 0:
             return
         n = int(n)
@@ -1178,7 +1277,14 @@ class World:
 
     def _vec3(self, value, what, world):
         """Broadcast a force-like (3,) or per-world (nworld, 3) array, refusing non-finite."""
-        a = np.asarray(value, dtype=float)
+        try:
+            if isinstance(value, (str, bytes)):
+                raise TypeError
+            a = np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            raise ModelError(f"{what} must be 3 numbers"
+                             + (f" or ({self.nworld}, 3)" if self.nworld > 1 else "")
+                             + f", got {value!r}") from None
         ok = a.shape == (3,) or (world is None and a.shape == (self.nworld, 3))
         if not ok:
             raise ModelError(f"{what} must have shape (3,)"

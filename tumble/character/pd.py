@@ -183,11 +183,32 @@ class PDController:
 
     def set_targets(self, quats, angvel=None):
         """Servo targets from (njoint, 4) joint-frame rotations; ``angvel`` (njoint, 3)
-        optional target rates along the DoF axes (rad/s)."""
-        tq, tpos = targets_from_quats(self.world.model, quats)
+        optional target rates along the DoF axes (rad/s). Refused (ModelError naming the
+        joint) unless finite numbers of the right shape and unit quaternions up to scale."""
+        m = self.world.model
+        try:
+            if isinstance(quats, (str, bytes)):
+                raise TypeError
+            q = np.asarray(quats, dtype=float)
+            qd = None if angvel is None else np.asarray(angvel, dtype=float)
+        except (TypeError, ValueError):
+            raise ModelError(f"set_targets: quats (..., {m.njoint}, 4) and angvel "
+                             f"(..., {m.njoint}, 3) must be numbers") from None
+        if isinstance(angvel, (str, bytes)):
+            raise ModelError(f"set_targets: angvel must be numbers (..., {m.njoint}, 3), got "
+                             f"{angvel!r}")
+        if q.shape[-2:] == (m.njoint, 4) and np.all(np.isfinite(q)):
+            zero = np.linalg.norm(q, axis=-1) < 1e-12
+            if zero.any():
+                j = int(np.argwhere(zero)[0][-1])
+                raise ModelError(f"set_targets: the target of joint '{m.joint_names[j]}' is a "
+                                 f"zero quaternion; give a unit quaternion (x, y, z, w)")
+        if qd is not None and not np.all(np.isfinite(qd)):
+            raise ModelError("set_targets: angvel is not finite")
+        tq, tpos = targets_from_quats(m, q)
         self.world.pd_target_quat = tq
         self.world.pd_target_q = tpos
-        self.world.pd_target_qd = 0.0 if angvel is None else angvel
+        self.world.pd_target_qd = 0.0 if qd is None else qd
 
     def joint_error(self, quats=None):
         """Angle (rad) between each joint's rotation and its target (or ``quats``): (njoint,)."""

@@ -64,6 +64,7 @@ class GeomSpec:
     conaffinity: int = 1
     margin: float = 0.0
     where: str = ""
+    dropped: str = ""             # why the loader dropped it (a mesh it could not find)
 
 
 @dataclass
@@ -104,6 +105,7 @@ class LinkSpec:
     joints: list = field(default_factory=list)
     kind: str = "dynamic"
     where: str = ""
+    dropped: list = field(default_factory=list)   # geoms the loader dropped, and why
 
 
 @dataclass
@@ -309,11 +311,14 @@ def _assemble(builder, links, report, merge_hinges, collide_with_world, world_ge
     body_pose = {}                 # link index -> (pos, Rotation) of its tumble body
     body_name = {}
     aux_specs = []
+    members_of = {}
+    for k in range(n):
+        members_of.setdefault(root[k], []).append(k)
     for i in range(n):
         if root[i] != i:
             continue
         link = links[i]
-        members = [k for k in range(n) if root[k] == i]
+        members = members_of[i]
         rot = rotation(link.quat)
         kwargs = {}
         pos = np.asarray(link.pos, float)
@@ -321,9 +326,11 @@ def _assemble(builder, links, report, merge_hinges, collide_with_world, world_ge
             parts = [k for k in members if links[k].mass > 0.0]
             if not parts:
                 names = ", ".join(f"'{links[k].name}'" for k in members)
+                dropped = [d for k in members for d in links[k].dropped]
+                why = f"; dropped: {'; '.join(dropped)}" if dropped else ""
                 raise ModelError(f"{link.where}: link '{link.name}' moves (it has a joint) but "
-                                 f"has no mass (links {names}); give it an inertial or geoms "
-                                 f"with density")
+                                 f"has no mass (links {names}{why}); give it an inertial or "
+                                 f"geoms with density")
             m, com, inertia_w = massprops.combine(
                 [links[k].mass for k in parts], [links[k].com for k in parts],
                 [links[k].inertia for k in parts])

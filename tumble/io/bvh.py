@@ -29,7 +29,6 @@ Conventions
 * The world frame is the root's parent frame, with no further conversion.
 """
 import math
-import os
 import re
 import warnings
 from pathlib import Path
@@ -39,6 +38,7 @@ from scipy.spatial.transform import Rotation
 
 from ..errors import ModelError
 from ..math import quat_np as Q
+from ._files import file_path, read_file, write_text
 
 __all__ = ["Motion", "load_bvh", "load_bvh_string", "save_bvh", "format_bvh"]
 
@@ -48,6 +48,13 @@ _POS_CHANNELS = {"Xposition": 0, "Yposition": 1, "Zposition": 2}
 # Tolerance on frame indices when resampling: snaps t/dt to whole frames so that
 # resampling at a multiple of the frame rate copies the original frames exactly.
 _FRAME_EPS = 1e-9
+#: Largest BVH file tumble reads.
+MAX_FILE_BYTES = 256 * 2 ** 20
+#: Deepest nesting of joints tumble reads (JOINT inside JOINT ...).
+MAX_DEPTH = 1000
+#: Largest magnitude of an OFFSET or channel value (file units, degrees): beyond it a
+#: file is refused as corrupt rather than overflowing forward kinematics.
+MAX_VALUE = 1e9
 
 
 # ----------------------------------------------------------------------------
@@ -544,6 +551,9 @@ class _Tokens:
             raise self.error(line, f"expected a number for {what}, got '{tok}'") from None
         if not math.isfinite(value):
             raise self.error(line, f"{what} is not finite ('{tok}')")
+        if abs(value) > MAX_VALUE:
+            raise self.error(line, f"{what} is {tok}, beyond the +-{MAX_VALUE:g} tumble reads "
+                                   f"(tumble.io.bvh.MAX_VALUE)")
         return value
 
 
@@ -556,7 +566,7 @@ def _parse_hierarchy(toks, names, parents, offsets, channels):
                          f"expected 'ROOT', got {toks.end_what}")
     toks.next("'ROOT'")
     name, line = toks.next("the root joint name")
-    _parse_joint(toks, name, line, -1, names, parents, offsets, channels)
+    _parse_joints(toks, name, line, names, parents, offsets, channels)
     tok, line = toks.peek()
     if tok == "ROOT":
         raise toks.error(line, "a second ROOT: files with several skeletons are not supported")
@@ -564,34 +574,58 @@ def _parse_hierarchy(toks, names, parents, offsets, channels):
         raise toks.error(line, f"expected 'MOTION', got '{tok}'")
 
 
-def _parse_joint(toks, name, name_line, parent, names, parents, offsets, channels):
-    if name in names:
-        raise toks.error(name_line, f"duplicate joint name '{name}'")
-    toks.expect("{")
-    j = len(names)
-    names.append(name)
-    parents.append(parent)
-    offsets.append(None)
-    channels.append(())
-    end_count = 0
-    seen_channels = False
-    while True:
+def _count(tok):
+    """The int of a count written with the ASCII digits 0-9, else None (``str.isdigit``
+    also accepts superscripts and other digits that ``int`` refuses)."""
+    return int(tok) if tok and tok.isascii() and tok.isdigit() else None
+
+
+def _parse_joints(toks, root_name, root_line, names, parents, offsets, channels):
+    """The joint tree from the root's name on, depth first with an explicit stack of the
+    open joints (no recursion: nesting up to ``MAX_DEPTH``)."""
+    known = set()
+    open_joints = []            # [index, name, End Sites so far, CHANNELS seen]
+
+    def start(name, name_line, parent):
+        if name in known:
+            raise toks.error(name_line, f"duplicate joint name '{name}'")
+        if len(open_joints) >= MAX_DEPTH:
+            raise toks.error(name_line, f"joint '{name}' is nested more than {MAX_DEPTH} deep, "
+                                        f"the most tumble reads (tumble.io.bvh.MAX_DEPTH)")
+        toks.expect("{")
+        open_joints.append([len(names), name, 0, False])
+        known.add(name)
+        names.append(name)
+        parents.append(parent)
+        offsets.append(None)
+        channels.append(())
+
+    start(root_name, root_line, -1)
+    while open_joints:
+        frame = open_joints[-1]
+        j, name = frame[0], frame[1]
         tok, line = toks.next(f"'}}' closing joint '{name}'")
         if tok == "}":
-            break
-        if tok == "OFFSET":
+            if offsets[j] is None:
+                raise toks.error(line, f"joint '{name}' has no OFFSET")
+            open_joints.pop()
+        elif tok == "OFFSET":
             if offsets[j] is not None:
                 raise toks.error(line, f"second OFFSET in joint '{name}'")
             offsets[j] = [toks.number(f"OFFSET of '{name}'") for _ in range(3)]
         elif tok == "CHANNELS":
-            if seen_channels:
+            if frame[3]:
                 raise toks.error(line, f"second CHANNELS in joint '{name}'")
-            seen_channels = True
+            frame[3] = True
             count_tok, cline = toks.next("the channel count")
-            if not count_tok.isdigit():
+            count = _count(count_tok)
+            if count is None:
                 raise toks.error(cline, f"expected a channel count, got '{count_tok}'")
+            if count > 6:
+                raise toks.error(cline, f"joint '{name}' has {count} channels; a joint has at "
+                                        f"most 6 (3 positions, 3 rotations)")
             ch = []
-            for _ in range(int(count_tok)):
+            for _ in range(count):
                 c, cl = toks.next(f"a channel name of '{name}'")
                 if c not in _ROT_CHANNELS and c not in _POS_CHANNELS:
                     raise toks.error(cl, f"unknown channel '{c}' in joint '{name}'")
@@ -605,17 +639,18 @@ def _parse_joint(toks, name, name_line, parent, names, parents, offsets, channel
             if offsets[j] is None:
                 raise toks.error(line, f"expected 'OFFSET' in joint '{name}', got 'JOINT'")
             child, cline = toks.next("a joint name")
-            _parse_joint(toks, child, cline, j, names, parents, offsets, channels)
+            start(child, cline, j)
         elif tok == "End":
             toks.expect("Site")
             if offsets[j] is None:
                 raise toks.error(line, f"expected 'OFFSET' in joint '{name}', got 'End Site'")
-            site = f"{name}_end" if end_count == 0 else f"{name}_end{end_count}"
-            end_count += 1
+            site = f"{name}_end" if frame[2] == 0 else f"{name}_end{frame[2]}"
+            frame[2] += 1
             toks.expect("{")
             sline = toks.expect("OFFSET")
-            if site in names:
+            if site in known:
                 raise toks.error(sline, f"End Site name '{site}' clashes with a joint")
+            known.add(site)
             names.append(site)
             parents.append(j)
             offsets.append([toks.number(f"OFFSET of the End Site of '{name}'") for _ in range(3)])
@@ -624,8 +659,6 @@ def _parse_joint(toks, name, name_line, parent, names, parents, offsets, channel
         else:
             expected = "'OFFSET'" if offsets[j] is None else "'CHANNELS', 'JOINT', 'End Site' or '}'"
             raise toks.error(line, f"expected {expected} in joint '{name}', got '{tok}'")
-    if offsets[j] is None:
-        raise toks.error(line, f"joint '{name}' has no OFFSET")
 
 
 _HEADER_RE = {
@@ -667,9 +700,9 @@ def _parse(text, source, scale):
         return m.group(1), cursor
 
     value, line = header("Frames")
-    if not value.isdigit():
+    num_frames = _count(value)
+    if num_frames is None:
         raise ModelError(f"{source} line {line}: expected a frame count, got '{value}'")
-    num_frames = int(value)
     value, line = header("Frame Time")
     try:
         frame_time = float(value)
@@ -705,12 +738,24 @@ def _parse(text, source, scale):
                     float(tok)
                 except ValueError:
                     raise ModelError(f"{source} line {line}: expected a number, got '{tok}'") from None
-        raise
-    if not np.all(np.isfinite(data)):
-        f = int(np.argwhere(~np.isfinite(data))[0, 0])
-        raise ModelError(f"{source} line {row_lines[f]}: non-finite channel value")
+        raise ModelError(f"{source}: the frame lines are not numbers") from None
+    bad = ~(np.abs(data) <= MAX_VALUE)          # non-finite, or beyond the bound
+    if bad.any():
+        f, col = (int(i) for i in np.argwhere(bad)[0])
+        owner = [(names[j], c) for j, ch in enumerate(channels) for c in ch][col]
+        what = f"{owner[1]} of joint '{owner[0]}' in frame {f}"
+        v = data[f, col]
+        raise ModelError(f"{source} line {row_lines[f]}: non-finite channel value: {what} is "
+                         f"'{rows[f][col]}'"
+                         if not math.isfinite(v) else
+                         f"{source} line {row_lines[f]}: {what} is {rows[f][col]}, beyond the "
+                         f"+-{MAX_VALUE:g} tumble reads (tumble.io.bvh.MAX_VALUE)")
 
     J = len(names)
+    # every joint position is a sum of offsets (or position channels) along its chain
+    reach = (float(np.abs(offsets).sum()) + float(np.abs(data).max(initial=0.0))) * scale
+    if not math.isfinite(reach):
+        raise ModelError(f"{source}: scale {scale:g} makes the joint positions overflow")
     offsets = np.array(offsets, dtype=np.float64) * scale
     positions = np.broadcast_to(offsets, (num_frames, J, 3)).copy()
     rotations = np.zeros((num_frames, J, 4))
@@ -737,9 +782,16 @@ def load_bvh_string(text, scale=1.0, *, source="<string>"):
 
     scale multiplies offsets and position channels (e.g. 0.01 for cm -> m).
     """
-    scale = float(scale)
+    try:
+        scale = float(scale)
+    except (TypeError, ValueError):
+        raise ModelError(f"load_bvh: scale must be a positive number, got {scale!r}") from None
     if not (math.isfinite(scale) and scale > 0.0):
         raise ModelError(f"load_bvh: scale must be a positive number, got {scale}")
+    if isinstance(text, (bytes, bytearray)):
+        text = bytes(text).decode("utf-8-sig", errors="replace")
+    if not isinstance(text, str):
+        raise ModelError(f"load_bvh: expected BVH text, got {type(text).__name__}")
     return _parse(text, source, scale)
 
 
@@ -750,15 +802,16 @@ def load_bvh(path, scale=1.0):
     by its starting with 'HIERARCHY'). scale: multiplies every length, offsets and
     position channels alike (0.01 turns centimetres into metres); the default
     keeps the file's units (metres for the GAMES-105 files).
-    Raises ModelError with the file name and line number for malformed files, and
-    FileNotFoundError for a missing file.
+    Raises ModelError with the file name and line number for malformed files, and for a
+    file that cannot be read (a directory, larger than ``MAX_FILE_BYTES``, ...); a missing
+    file raises ``tumble.io.MissingFileError``, both a ModelError and a FileNotFoundError.
     """
     if isinstance(path, str) and path.lstrip().startswith("HIERARCHY"):
         return load_bvh_string(path, scale)
-    path = Path(os.fspath(path))
-    with open(path, encoding="utf-8-sig", errors="replace") as fh:
-        text = fh.read()
-    return load_bvh_string(text, scale, source=path.name)
+    p = file_path(path, "load_bvh")
+    data = read_file(p, "load_bvh", MAX_FILE_BYTES, cap_name="tumble.io.bvh.MAX_FILE_BYTES")
+    text = data.decode("utf-8-sig", errors="replace")
+    return load_bvh_string(text, scale, source=Path(p).name)
 
 
 # ----------------------------------------------------------------------------
@@ -807,15 +860,22 @@ def format_bvh(motion, scale=1.0, precision=12):
         x, y, z = (fmt.format(v * scale) for v in motion.offsets[j])
         return f"{indent}OFFSET {x} {y} {z}"
 
-    def write(j, depth):
+    # depth first with an explicit stack (no recursion, so any depth works): entries are
+    # (joint, depth) to write a joint, (None, depth) to close one
+    stack = [(motion.root, 0)]
+    while stack:
+        j, depth = stack.pop()
         indent = "  " * depth
+        if j is None:
+            out.append(f"{indent}}}")
+            continue
         is_site = not channels[j] and not children[j]
         if is_site:
             if parents[j] < 0:
                 raise ModelError(f"save_bvh: root '{names[j]}' has no channels and no children")
             out.extend([f"{indent}End Site", f"{indent}{{", offset_line(j, indent + "  "),
                         f"{indent}}}"])
-            return
+            continue
         head = "ROOT" if parents[j] < 0 else "JOINT"
         if any(c.isspace() for c in names[j]) or not names[j]:
             raise ModelError(f"save_bvh: joint name '{names[j]}' cannot be written in BVH")
@@ -823,11 +883,8 @@ def format_bvh(motion, scale=1.0, precision=12):
         out.append(f"{indent}  CHANNELS {len(channels[j])}" +
                    "".join(" " + c for c in channels[j]))
         order.append(j)
-        for c in children[j]:
-            write(c, depth + 1)
-        out.append(f"{indent}}}")
-
-    write(motion.root, 0)
+        stack.append((None, depth))
+        stack.extend((c, depth + 1) for c in reversed(children[j]))
 
     F = motion.num_frames
     columns = []
@@ -869,5 +926,4 @@ def save_bvh(motion, path, scale=1.0, precision=12):
     ``10**-precision`` relative.
     """
     text = format_bvh(motion, scale=scale, precision=precision)
-    with open(os.fspath(path), "w", encoding="utf-8", newline="\n") as fh:
-        fh.write(text)
+    write_text(path, text, "save_bvh")

@@ -50,8 +50,10 @@ from ..model import mass as massprops
 from ..model import meshes
 from ..model.builder import ModelBuilder
 from ._assembly import GeomSpec, JointSpec, LinkSpec, LoadReport, assemble
-from ._meshfile import MeshFileError, read_mesh_vertices
-from ._xml import boolean, choice, floats, parse_xml, parse_xml_text
+from ._meshfile import MeshFileError, MeshFileSkipped, read_mesh_vertices
+from ._files import read_file
+from ._xml import (MAX_XML_BYTES, Budget, boolean, choice, floats, norm, parse_xml,
+                   parse_xml_text)
 
 __all__ = ["load_mjcf", "parse_mjcf", "ActuatorSpec"]
 
@@ -93,6 +95,11 @@ _GEOM_TYPES = {"plane", "sphere", "capsule", "cylinder", "box", "ellipsoid", "me
                "sdf"}
 # Sphere sampling for ellipsoid hulls: latitude rings x longitudes (+ 2 poles = 130 points).
 _ELLIPSOID_RINGS, _ELLIPSOID_SEGMENTS = 8, 16
+#: Most ``<include>`` elements one model may expand (each use of a file counts), and the
+#: deepest chain of files including files. XML size, element count and nesting are capped
+#: in ``tumble.io._xml`` (``MAX_XML_BYTES``, ``MAX_ELEMENTS``, ``MAX_DEPTH``).
+MAX_INCLUDES = 1000
+MAX_INCLUDE_DEPTH = 20
 
 
 @dataclass
@@ -161,8 +168,9 @@ def parse_mjcf(source, *, merge_hinges=True, _stacklevel=3):
     body and joint names to tumble ones, holds the actuator specs and lists what was
     ignored or merged.
     """
-    root, base_dir, name = parse_xml(source, "load_mjcf")
-    loader = _MJCF(name, base_dir, merge_hinges)
+    budget = Budget()
+    root, base_dir, name = parse_xml(source, "load_mjcf", budget)
+    loader = _MJCF(name, base_dir, merge_hinges, budget)
     builder = loader.load(root)
     loader.report.warn("load_mjcf", stacklevel=_stacklevel)
     return builder, loader.report
@@ -242,10 +250,21 @@ class _Attrs:
 
 
 def _unit(node, attr, v):
+    v = np.asarray(v, float)
+    big = float(np.max(np.abs(v))) if v.size else 0.0
+    if big >= 1e150:                  # the squares would overflow: scale first
+        v = v / big
     n = float(np.linalg.norm(v))
-    if n < 1e-12:
+    if n * (big if big >= 1e150 else 1.0) < 1e-12:
         raise node.error("is the zero vector", attr)
-    return np.asarray(v, float) / n
+    return v / n
+
+
+def _plain_scale(v):
+    """1 for vectors whose squares do not overflow (so they are used exactly as before),
+    else their largest component."""
+    big = float(np.max(np.abs(v)))
+    return 1.0 if big < 1e150 else big
 
 
 def _quat_z_to(d):
@@ -260,7 +279,7 @@ def _quat_z_to(d):
 
 # ------------------------------------------------------------------------ the loader
 class _MJCF:
-    def __init__(self, name, base_dir, merge_hinges):
+    def __init__(self, name, base_dir, merge_hinges, budget=None):
         self.name = name
         self.base_dir = base_dir
         self.merge_hinges = merge_hinges
@@ -285,6 +304,8 @@ class _MJCF:
         self.joint_nodes = {}                     # MJCF joint name -> (node, ref)
         self.world_geoms = []
         self.geom_count = 0
+        self.budget = Budget() if budget is None else budget
+        self.includes = 0
 
     def _loc(self, node):
         """Where a node is, for the warning: its line, and its file when included."""
@@ -295,7 +316,7 @@ class _MJCF:
     def load(self, root):
         if root.tag != "mujoco":
             raise root.error(f"the root element must be <mujoco>, got <{root.tag}>")
-        self._expand_includes(root, self.base_dir, set())
+        self._expand_includes(root)
         for c in root.findall("compiler"):
             self._compiler(c)
         for c in root.children:
@@ -331,32 +352,48 @@ class _MJCF:
                                self._loc(root.findall("actuator")[0]))
         return builder
 
-    def _expand_includes(self, node, base_dir, seen):
-        out = []
-        for c in node.children:
-            if c.tag != "include":
-                self._expand_includes(c, base_dir, seen)
-                out.append(c)
-                continue
-            f = c.attrib.get("file")
-            if not f:
-                raise c.error("is required", "file")
-            path = os.path.join(base_dir, f)
-            if path in seen:
-                raise c.error(f"'{f}' includes itself", "file")
-            try:
-                with open(path, "rb") as fh:
-                    data = fh.read()
-            except OSError as e:
-                raise c.error(f"cannot read '{path}': {e.strerror or e}", "file") from None
-            sub = parse_xml_text(data, os.path.basename(path))
-            if sub.tag != "mujoco":
-                raise sub.error(f"an included file's root must be <mujoco>, got <{sub.tag}>")
-            self._expand_includes(sub, base_dir, seen | {path})
-            for s in sub.children:
-                s.parent = node
-                out.append(s)
-        node.children = out
+    def _expand_includes(self, root):
+        """Replace every ``<include file>`` by the children of that file's root, in place
+        (files resolve against the main file's directory). Iterative; refuses a file that
+        includes itself, includes nested more than ``MAX_INCLUDE_DEPTH`` deep, more than
+        ``MAX_INCLUDES`` of them, and (through the budget) more XML than the loader reads."""
+        work = [(root, frozenset())]             # elements whose children to expand
+        while work:
+            node, chain = work.pop()
+            out = []
+            pending = [(c, chain) for c in reversed(node.children)]
+            while pending:
+                c, seen = pending.pop()
+                if c.tag != "include":
+                    c.parent = node
+                    out.append(c)
+                    if c.children:
+                        work.append((c, seen))
+                    continue
+                f = c.attrib.get("file")
+                if not f:
+                    raise c.error("is required", "file")
+                path = os.path.join(self.base_dir, f)
+                if path in seen:
+                    raise c.error(f"'{f}' includes itself", "file")
+                if len(seen) >= MAX_INCLUDE_DEPTH:
+                    raise c.error(f"includes nested more than {MAX_INCLUDE_DEPTH} deep "
+                                  f"(tumble.io.mjcf.MAX_INCLUDE_DEPTH)", "file")
+                self.includes += 1
+                if self.includes > MAX_INCLUDES:
+                    raise c.error(f"more than {MAX_INCLUDES} includes in one model, the most "
+                                  f"tumble expands (tumble.io.mjcf.MAX_INCLUDES)", "file")
+                try:
+                    data = read_file(path, "include", MAX_XML_BYTES,
+                                     cap_name="tumble.io._xml.MAX_XML_BYTES")
+                    self.budget.add_bytes(len(data), os.path.basename(path))
+                except ModelError as e:
+                    raise c.error(str(e), "file") from None
+                sub = parse_xml_text(data, os.path.basename(path), self.budget)
+                if sub.tag != "mujoco":
+                    raise sub.error(f"an included file's root must be <mujoco>, got <{sub.tag}>")
+                pending.extend((k, seen | {path}) for k in reversed(sub.children))
+            node.children = out
 
     def _compiler(self, node):
         a = _Attrs(node)
@@ -400,27 +437,30 @@ class _MJCF:
             self.report.ignore(f"<option><{c.tag}>", self._loc(c))
 
     def _defaults(self, node, parent, inherited):
-        name = node.attrib.get("class")
-        if name is None:
-            if parent is not None:
-                raise node.error("a nested <default> needs a class name", "class")
-            name = "main"
-        if parent is not None and name in self.classes:
-            raise node.error(f"default class '{name}' is defined twice", "class")
-        mine = {tag: dict(attrs) for tag, attrs in inherited.items()}
-        for c in node.children:
-            if c.tag == "default":
-                continue
-            entry = mine.setdefault(c.tag, {})
-            entry.update({k: (v, c) for k, v in c.attrib.items()})
-        if name == "main" and parent is None:
-            for tag, attrs in self.classes["main"].items():
-                for k, v in attrs.items():
-                    mine.setdefault(tag, {}).setdefault(k, v)
-        self.classes[name] = mine
-        for c in node.children:
-            if c.tag == "default":
-                self._defaults(c, name, mine)
+        """Default classes of a top-level ``<default>`` and those nested in it (parents
+        first, in file order; iterative, so any nesting the XML reader allows works)."""
+        stack = [(node, parent, inherited)]
+        while stack:
+            node, parent, inherited = stack.pop()
+            name = node.attrib.get("class")
+            if name is None:
+                if parent is not None:
+                    raise node.error("a nested <default> needs a class name", "class")
+                name = "main"
+            if parent is not None and name in self.classes:
+                raise node.error(f"default class '{name}' is defined twice", "class")
+            mine = {tag: dict(attrs) for tag, attrs in inherited.items()}
+            for c in node.children:
+                if c.tag == "default":
+                    continue
+                entry = mine.setdefault(c.tag, {})
+                entry.update({k: (v, c) for k, v in c.attrib.items()})
+            if name == "main" and parent is None:
+                for tag, attrs in self.classes["main"].items():
+                    for k, v in attrs.items():
+                        mine.setdefault(tag, {}).setdefault(k, v)
+            self.classes[name] = mine
+            stack.extend((c, name, mine) for c in reversed(node.children) if c.tag == "default")
 
     def _attrs(self, node, tag, childclass):
         cls = node.attrib.get("class", childclass or "main")
@@ -462,9 +502,9 @@ class _MJCF:
         node = a.vals[k][1]
         if k == "quat":
             q = np.array([v[1], v[2], v[3], v[0]])          # MJCF is w, x, y, z
-            if np.linalg.norm(q) < 1e-12:
+            if norm(q) < 1e-12:
                 raise node.error("is zero", k)
-            return Rotation.from_quat(q)
+            return Rotation.from_quat(q / _plain_scale(q))
         if k == "axisangle":
             return Rotation.from_rotvec(_unit(node, k, v[:3]) * v[3] * self.angle)
         if k == "euler":
@@ -490,18 +530,25 @@ class _MJCF:
 
     # -------------------------------------------------------------------- bodies
     def _walk(self, node, link, ppos, prot, childclass):
-        """Children of the world body, a body or a frame; ``link`` -1 is the world."""
-        for c in node.children:
+        """Children of the world body, a body or a frame; ``link`` -1 is the world.
+
+        Depth first in file order with an explicit stack (no recursion, so any nesting the
+        XML reader allows works): each entry is an element and its parent's link, world
+        pose and child class."""
+        stack = [(c, link, ppos, prot, childclass) for c in reversed(node.children)]
+        while stack:
+            c, link, ppos, prot, childclass = stack.pop()
             tag = c.tag
             if tag == "body":
-                self._body(c, link, ppos, prot, childclass)
+                index, pos, rot, cc = self._body(c, link, ppos, prot, childclass)
+                stack.extend((k, index, pos, rot, cc) for k in reversed(c.children))
             elif tag == "frame":
                 a = self._attrs(c, "frame", childclass)
                 fpos, frot = self._pose(a, ppos, prot)
                 cc = c.attrib.get("childclass", childclass)
                 if cc is not None and cc not in self.classes:
                     raise c.error(f"unknown default class '{cc}'", "childclass")
-                self._walk(c, link, fpos, frot, cc)
+                stack.extend((k, link, fpos, frot, cc) for k in reversed(c.children))
             elif tag == "geom":
                 self._geom(c, link, ppos, prot, childclass)
             elif tag in ("joint", "freejoint"):
@@ -518,6 +565,8 @@ class _MJCF:
                 self.report.ignore(f"<{tag}>", self._loc(c))
 
     def _body(self, node, parent, ppos, prot, childclass):
+        """Add the link of a ``<body>``; returns (its index, world pos, Rotation, the child
+        class its children inherit)."""
         cc = node.attrib.get("childclass", childclass)
         if cc is not None and cc not in self.classes:
             raise node.error(f"unknown default class '{cc}'", "childclass")
@@ -538,7 +587,7 @@ class _MJCF:
         self.link_nodes.append(node)
         self.geom_mass.append([])
         self.inertial.append(None)
-        self._walk(node, index, pos, rot, cc)
+        return index, pos, rot, cc
 
     def _inertial(self, node, link, ppos, prot):
         if self.inertial[link] is not None:
@@ -616,6 +665,8 @@ class _MJCF:
                         where=node.where())
         props = self._shape(a, spec, gtype, size, rot)       # sets type, size, vertices
         if props is None:
+            if link >= 0:
+                self.links[link].dropped.append(spec.dropped)
             return
         m_unit, com_g, tensor_unit = props                   # at density 1
         if link < 0:
@@ -669,20 +720,27 @@ class _MJCF:
             raise a.error("mesh", "a mesh geom needs the mesh attribute")
         if mname not in self.meshes:
             raise a.error("mesh", f"unknown mesh '{mname}'; meshes are {sorted(self.meshes)}")
-        verts = self._mesh_vertices(mname)
+        verts, skipped = self._mesh_vertices(mname, a)
         if verts is None:
+            spec.dropped = f"mesh geom '{spec.name}' ({skipped})"
             return None
         spec.type = "convex"
         try:
             spec.vertices = meshes.convex_hull(verts, spec.where)
             m, com, tensor = meshes.convex_mass(spec.vertices, 1.0, spec.where)
         except ModelError as e:
-            raise ModelError(f"mesh '{mname}': {e}") from None
+            f = self.meshes[mname][1]
+            raise ModelError(f"mesh '{mname}'" + (f" (file '{f}')" if f else "") + f": {e}") \
+                from None
         self.report.notes.append(f"mesh geom '{spec.name}' -> the convex hull of mesh "
                                  f"'{mname}' ({len(spec.vertices)} vertices; mass from the hull)")
         return m, com, tensor
 
-    def _mesh_vertices(self, mname):
+    def _mesh_vertices(self, mname, geom):
+        """(vertices, None) of mesh ``mname`` used by the geom whose attributes are ``geom``;
+        (None, why) when its file is missing or in a format tumble does not read (the geom
+        is then dropped and named in the warning). A file that is there but cannot be read
+        raises ModelError naming the geom, the mesh and the file."""
         a, f = self.meshes[mname]
         scale = a.vec("scale", 3, (1.0, 1.0, 1.0))
         if a.has("vertex"):
@@ -691,14 +749,23 @@ class _MJCF:
                 raise a.error("vertex", f"needs a multiple of 3 numbers, got {len(v)}")
             verts = np.array(v).reshape(-1, 3)
         elif f is not None:
+            if "\x00" in f:
+                raise a.error("file", "a file name cannot hold a NUL byte")
             try:
                 verts = read_mesh_vertices(os.path.join(self.meshdir, f))
-            except MeshFileError as e:
+            except MeshFileSkipped as e:
                 self.report.ignore(f"mesh '{mname}' ({e})", self._loc(a.node))
-                return None
+                return None, f"mesh '{mname}': {e}"
+            except MeshFileError as e:
+                raise geom.error("mesh", f"mesh '{mname}' (at {self._loc(a.node)}): {e}") \
+                    from None
         else:
             raise a.node.error("a mesh needs file or vertex")
-        return verts * scale
+        with np.errstate(over="ignore"):
+            verts = verts * scale
+        if not np.all(np.isfinite(verts)):
+            raise a.error("scale", f"mesh '{mname}' scaled by {scale.tolist()} overflows")
+        return verts, None
 
     # -------------------------------------------------------------------- joints
     def _joint(self, node, link, ppos, prot, childclass):

@@ -28,8 +28,8 @@ from ..model import meshes
 from ..model.builder import ModelBuilder
 from ..model.validate import unit_quat, vector
 from ._assembly import GeomSpec, JointSpec, LinkSpec, LoadReport, assemble
-from ._meshfile import MeshFileError, read_mesh_vertices
-from ._xml import floats, parse_xml
+from ._meshfile import MeshFileError, MeshFileSkipped, read_mesh_vertices
+from ._xml import floats, norm, parse_xml
 
 __all__ = ["load_urdf", "parse_urdf"]
 
@@ -163,8 +163,15 @@ def _read(root, base_dir, report, fixed_base, pos0, rot0):
                          f"child), found {len(roots)}: {roots}")
 
     links, index = [], {}
-
-    def visit(name, parent_index, pos, rot, jnode):
+    # depth first from the root, children in file order (an explicit stack, so a chain
+    # of any length works): (link name, parent index, parent's world pos and Rotation,
+    # the joint node to the parent)
+    stack = [(roots[0], -1, pos0, rot0, None)]
+    while stack:
+        name, parent_index, pos, rot, jnode = stack.pop()
+        if jnode is not None:
+            jpos, jrot = _origin(jnode)
+            pos, rot = pos + rot.apply(jpos), rot * jrot
         node = link_nodes[name]
         link = LinkSpec(name=name, parent=parent_index, pos=pos, quat=rot.as_quat(),
                         where=node.where())
@@ -176,12 +183,9 @@ def _read(root, base_dir, report, fixed_base, pos0, rot0):
                                      axis=np.array([0.0, 0, 1]), where=node.where())]
         index[name] = len(links)
         links.append(link)
-        for c in children[name]:
-            jn = parent_of[c][1]
-            jpos, jrot = _origin(jn)
-            visit(c, index[name], pos + rot.apply(jpos), rot * jrot, jn)
+        stack.extend((c, index[name], pos, rot, parent_of[c][1])
+                     for c in reversed(children[name]))
 
-    visit(roots[0], -1, pos0, rot0, None)
     unreachable = [n for n in link_nodes if n not in index]
     if unreachable:
         raise root.error(f"links {unreachable} are not connected to the root "
@@ -250,12 +254,21 @@ def _collision(col, link, k, pos, rot, base_dir, report):
         if not fn:
             raise shape.error("is required", "filename")
         scale = _numbers(shape, "scale", 3, (1.0, 1.0, 1.0))
-        verts, why = _mesh(fn, base_dir)
+        try:
+            verts, why = _mesh(fn, base_dir)
+        except MeshFileError as e:
+            raise shape.error(f"collision '{name}' of link '{link.name}': {e}",
+                              "filename") from None
         if verts is None:
             report.ignore(f"collision mesh '{fn}' ({why})", f"line {shape.line}")
+            link.dropped.append(f"collision mesh '{fn}' ({why})")
             return None
         spec.type = "convex"
-        spec.vertices = meshes.convex_hull(verts * scale, shape.where())
+        with np.errstate(over="ignore"):
+            verts = verts * scale
+        if not np.all(np.isfinite(verts)):
+            raise shape.error(f"mesh '{fn}' scaled by {scale.tolist()} overflows", "scale")
+        spec.vertices = meshes.convex_hull(verts, f"{shape.where()} (mesh file '{fn}')")
         report.notes.append(f"collision mesh '{fn}' of link '{link.name}' -> its convex hull "
                             f"({len(spec.vertices)} vertices)")
     else:
@@ -265,7 +278,9 @@ def _collision(col, link, k, pos, rot, base_dir, report):
 
 
 def _mesh(filename, base_dir):
-    """Vertices of a mesh file named in a URDF, or (None, reason)."""
+    """Vertices of a mesh file named in a URDF, or (None, reason) when it is not found or
+    in a format tumble does not read. A file that is there but cannot be read raises
+    MeshFileError."""
     rel = filename
     candidates = []
     if rel.startswith("file://"):
@@ -278,10 +293,10 @@ def _mesh(filename, base_dir):
         candidates.append(os.path.join(base_dir, rel))
     reason = "not found"
     for path in candidates:
-        if os.path.exists(path):
+        if "\x00" not in path and os.path.exists(path):
             try:
                 return read_mesh_vertices(path), None
-            except MeshFileError as e:
+            except MeshFileSkipped as e:
                 reason = str(e)
     return None, reason
 
@@ -294,10 +309,12 @@ def _joint(j, pos, rot, report):
     axis = _numbers(axis_node, "xyz", 3, (1.0, 0.0, 0.0)) if axis_node is not None \
         else np.array([1.0, 0.0, 0.0])
     if jtype in ("revolute", "continuous", "prismatic", "planar"):
-        n = float(np.linalg.norm(axis))
-        if n < 1e-12:
+        if norm(axis) < 1e-12:
             raise axis_node.error("is the zero vector", "xyz")
-        axis = rot.apply(axis / n)
+        big = float(np.max(np.abs(axis)))
+        if big >= 1e150:                        # the squares would overflow: scale first
+            axis = axis / big
+        axis = rot.apply(axis / float(np.linalg.norm(axis)))
     limit = None
     lim = j.find("limit")
     if jtype in ("revolute", "prismatic"):

@@ -27,6 +27,28 @@ def body_pair_key(a, b, nbody):
     return min(a, b) * (nbody + 1) + max(a, b)
 
 
+def _numbers(value, where, field, shape):
+    """``value`` as a float array; ModelError naming the field when it is not numbers."""
+    try:
+        if isinstance(value, (str, bytes)):
+            raise TypeError
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ModelError(f"{where}: {field} must be numbers, {shape}, got {value!r}") from None
+
+
+def _number(value, where, field):
+    """``value`` (a number or a one-element array) as a float; ModelError naming the field
+    when it is not one."""
+    try:
+        a = _numbers(value, where, field, "")
+    except ModelError:
+        a = np.zeros(0)
+    if a.size != 1:
+        raise ModelError(f"{where}: {field} must be a number, got {value!r}")
+    return float(a.reshape(-1)[0])
+
+
 def _quat_z_to(normal):
     """Unit quaternion (x, y, z, w) rotating +z onto the unit vector ``normal``."""
     z = np.array([0.0, 0.0, 1.0])
@@ -81,7 +103,7 @@ class ModelBuilder:
             raise ModelError(f"body name must be a non-empty string, got {name!r}")
         if name in self._body_index:
             raise ModelError(f"{where}: a body with this name already exists")
-        if kind not in BODY_KINDS:
+        if not isinstance(kind, str) or kind not in BODY_KINDS:
             raise ModelError(f"{where}: kind must be one of {list(BODY_KINDS)}, got {kind!r}")
         body = dict(name=name, kind=kind,
                     pos=vector(pos, 3, where, "pos"), quat=unit_quat(quat, where, "quat"),
@@ -92,7 +114,9 @@ class ModelBuilder:
         if inertia is not None:
             if mass is None:
                 raise ModelError(f"{where}: inertia given without mass")
-            body["inertia"] = massprops.check_inertia(inertia, where)
+            body["inertia"] = massprops.check_inertia(
+                _numbers(inertia, where, "inertia", "(3,) principal moments or a (3, 3) "
+                                                    "tensor"), where)
         if density is not None:
             if mass is not None:
                 raise ModelError(f"{where}: give mass or density, not both")
@@ -164,7 +188,7 @@ class ModelBuilder:
                 body_idx = self.body_index(body)
             except ModelError as e:
                 raise ModelError(f"{where}: {e}") from None
-        if type not in GEOM_TYPES:
+        if not isinstance(type, str) or type not in GEOM_TYPES:
             raise ModelError(f"{where}: type must be one of {list(GEOM_TYPES)}, got {type!r}")
         mesh = hfield = None
         if type == "convex":
@@ -234,13 +258,13 @@ class ModelBuilder:
             names = ("size[0] (hx)", "size[1] (hy)", "size[2] (hz)")
         elif type == "sphere":
             if size is not None:
-                radius = np.asarray(size, dtype=float).reshape(-1)
+                radius = _numbers(size, where, "size", "(radius,)").reshape(-1)
                 if radius.size != 1:
                     raise ModelError(f"{where}: a sphere's size is (radius,), got {size!r}")
                 radius = radius[0]
             if radius is None:
                 raise ModelError(f"{where}: a sphere needs a radius")
-            out[0] = radius
+            out[0] = _number(radius, where, "radius")
             names = ("radius",)
         else:  # capsule, cylinder
             if size is not None:
@@ -248,7 +272,8 @@ class ModelBuilder:
             else:
                 if radius is None or half_length is None:
                     raise ModelError(f"{where}: a {type} needs radius and half_length")
-                out[0], out[1] = radius, half_length
+                out[0] = _number(radius, where, "radius")
+                out[1] = _number(half_length, where, "half_length")
             names = ("radius", "half_length")
         for i, field in enumerate(names):
             positive(out[i], where, field)
@@ -301,7 +326,7 @@ class ModelBuilder:
             raise ModelError(f"joint name must be a non-empty string, got {name!r}")
         if name in self._joint_names:
             raise ModelError(f"{where}: a joint with this name already exists")
-        if type not in JOINT_TYPES:
+        if not isinstance(type, str) or type not in JOINT_TYPES:
             raise ModelError(f"{where}: type must be one of {list(JOINT_TYPES)}, got {type!r}")
         try:
             p = -1 if parent is None else self.body_index(parent)
@@ -459,7 +484,8 @@ class ModelBuilder:
         if axis is not None:
             axis_j = frame.T @ unit_vector(axis, where, "axis")
         elif dof is not None:
-            if dof not in (0, 1, 2):
+            if isinstance(dof, bool) or not isinstance(dof, (int, np.integer)) \
+                    or dof not in (0, 1, 2):
                 raise ModelError(f"{where}: dof must be 0, 1 or 2, got {dof!r}")
             axis_j = np.eye(3)[dof]
         elif jt["type"] in ("hinge", "slider"):

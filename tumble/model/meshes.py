@@ -13,6 +13,12 @@ from ..errors import ModelError
 
 #: Most hull vertices a convex geom may have (the support function is a linear scan).
 MAX_HULL_VERTICES = 256
+#: Largest coordinate (m) of a point given to the hull: Qhull fails beyond about 1e75 and
+#: crashes the interpreter (segmentation fault) beyond about 1e155, so points are checked
+#: before it sees them.
+MAX_COORDINATE = 1e12
+#: Most points given to the hull (Qhull crashes past 2**24: scipy issue 4985).
+MAX_HULL_POINTS = 2 ** 23
 # A hull thinner than this fraction of its extent counts as flat.
 _FLAT_REL = 1e-9
 
@@ -32,6 +38,14 @@ def _points(points, where, name="points"):
 def _hull(p, where):
     if p.shape[0] < 4:
         raise ModelError(f"{where}: a convex hull needs at least 4 points, got {p.shape[0]}")
+    if p.shape[0] > MAX_HULL_POINTS:
+        raise ModelError(f"{where}: {p.shape[0]} points, more than the {MAX_HULL_POINTS} a "
+                         f"convex hull is computed from (tumble.model.meshes.MAX_HULL_POINTS)")
+    reach = float(np.max(np.abs(p)))
+    if reach > MAX_COORDINATE:
+        raise ModelError(f"{where}: a point lies {reach:.3g} m from the origin, beyond the "
+                         f"{MAX_COORDINATE:g} m a convex hull is computed within "
+                         f"(tumble.model.meshes.MAX_COORDINATE)")
     ext = float(np.max(np.ptp(p, axis=0)))
     if not ext > 0.0:
         raise ModelError(f"{where}: the points all coincide; a convex hull needs volume")
@@ -85,21 +99,28 @@ def convex_mass(vertices, density, where="mesh"):
     vol = 0.0
     first = np.zeros(3)
     second = np.zeros((3, 3))
-    for simplex, eq in zip(hull.simplices, hull.equations):
-        a, b, c = q[simplex[0]], q[simplex[1]], q[simplex[2]]
-        n = np.cross(b - a, c - a)
-        if n @ eq[:3] < 0.0:          # orient the facet outwards
-            b, c = c, b
-        v = np.dot(a, np.cross(b, c)) / 6.0   # tetrahedron (0, a, b, c)
-        s = a + b + c
-        vol += v
-        first += v * s / 4.0
-        second += v / 20.0 * (np.outer(a, a) + np.outer(b, b) + np.outer(c, c) + np.outer(s, s))
-    mass = rho * vol
-    com_rel = first / vol
-    cov = rho * second - mass * np.outer(com_rel, com_rel)   # about the com
-    inertia = np.trace(cov) * np.eye(3) - cov
-    inertia = 0.5 * (inertia + inertia.T)
+    # (huge hulls overflow here: the result is checked below instead)
+    with np.errstate(over="ignore", invalid="ignore"):
+        for simplex, eq in zip(hull.simplices, hull.equations):
+            a, b, c = q[simplex[0]], q[simplex[1]], q[simplex[2]]
+            n = np.cross(b - a, c - a)
+            if n @ eq[:3] < 0.0:          # orient the facet outwards
+                b, c = c, b
+            v = np.dot(a, np.cross(b, c)) / 6.0   # tetrahedron (0, a, b, c)
+            s = a + b + c
+            vol += v
+            first += v * s / 4.0
+            second += v / 20.0 * (np.outer(a, a) + np.outer(b, b) + np.outer(c, c)
+                                  + np.outer(s, s))
+        mass = rho * vol
+        com_rel = first / vol
+        cov = rho * second - mass * np.outer(com_rel, com_rel)   # about the com
+        inertia = np.trace(cov) * np.eye(3) - cov
+        inertia = 0.5 * (inertia + inertia.T)
+    if not (np.isfinite(mass) and mass > 0.0 and np.all(np.isfinite(com_rel))
+            and np.all(np.isfinite(inertia))):
+        raise ModelError(f"{where}: the mass properties of the hull overflow (extent "
+                         f"{float(np.max(np.ptp(p, axis=0))):.3g}, density {rho:.3g})")
     return float(mass), c0 + com_rel, inertia
 
 
