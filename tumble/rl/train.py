@@ -77,7 +77,7 @@ class TrainConfig:
     lam: float = 0.95
     clip_param: float = 0.2
     entropy_coef: float = 0.0
-    init_std: float = 0.4
+    init_std: float = 0.3
     hidden: tuple = (512, 256)
     activation: str = "elu"
     iterations: int = 1000
