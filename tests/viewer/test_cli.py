@@ -103,16 +103,7 @@ def test_view_serves_the_page_until_interrupted(tmp_path):
         assert url and url.startswith("http://127.0.0.1:")
         with urllib.request.urlopen(url, timeout=10) as page:
             assert page.status == 200 and b"<html" in page.read().lower()
-        proc.send_signal(signal.SIGINT)
-        try:
-            code = proc.wait(timeout=60)
-        except subprocess.TimeoutExpired:
-            # say where it hangs: SIGABRT makes faulthandler print every thread's stack
-            proc.send_signal(signal.SIGABRT)
-            proc.wait(timeout=10)
-            raise AssertionError("tumble view did not stop on Ctrl-C within 60 s; it printed:\n"
-                                 + proc.stdout.read())
-        assert code == 0, proc.stdout.read()
+        _stop_with_ctrl_c(proc, "tumble view")
     finally:
         if proc.poll() is None:
             proc.kill()
@@ -158,16 +149,22 @@ def test_record_a_policy_and_play_it_in_the_viewer(tmp_path, capsys):
         assert any(l.startswith("tumble play: <tumble.rl.Policy: imitate walk") for l in lines)
         with urllib.request.urlopen(url, timeout=10) as page:
             assert page.status == 200 and b"<html" in page.read().lower()
-        proc.send_signal(signal.SIGINT)
-        try:
-            code = proc.wait(timeout=60)
-        except subprocess.TimeoutExpired:
-            proc.send_signal(signal.SIGABRT)
-            proc.wait(timeout=10)
-            raise AssertionError("tumble play did not stop on Ctrl-C within 60 s; it printed:\n"
-                                 + proc.stdout.read())
-        assert code == 0, proc.stdout.read()
+        _stop_with_ctrl_c(proc, "tumble play")
     finally:
         if proc.poll() is None:
             proc.kill()
             proc.wait()
+
+
+def _stop_with_ctrl_c(proc, what):
+    """Send Ctrl-C to a served command and check it exits cleanly within 60 s; if it hangs,
+    SIGABRT makes faulthandler print every thread's stack, which the failure shows."""
+    proc.send_signal(signal.SIGINT)
+    try:
+        code = proc.wait(timeout=60)
+    except subprocess.TimeoutExpired:
+        proc.send_signal(signal.SIGABRT)
+        proc.wait(timeout=10)
+        raise AssertionError(f"{what} did not stop on Ctrl-C within 60 s; it printed:\n"
+                             + proc.stdout.read())
+    assert code == 0, proc.stdout.read()
