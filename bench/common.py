@@ -15,10 +15,7 @@ import time
 
 import numpy as np
 
-SCENES = ["chain", "stack", "pyramid",
-          "ragdoll600", "ragdoll600pd", "ragdoll600pds",
-          "ragdoll1920", "ragdoll1920pd", "ragdoll1920pds",
-          "spheres"]
+from tumble.apps.benchmarks import SCENES, ragdoll_mode  # noqa: F401  (the runners' names)
 
 # Thresholds (m) of the pass/fail figures: a stack whose top box moved less than this stood.
 STOOD_DRIFT = 0.1
@@ -36,18 +33,6 @@ def parse(engine, variants, scenes=SCENES):
                     help="stop the stepping loop after this many seconds of stepping "
                          "(the result is then marked partial)")
     return ap.parse_args()
-
-
-def ragdoll_mode(scene):
-    """'ragdoll1920' -> (1920, None); 'ragdoll600pd' -> (600, 'spec');
-    'ragdoll600pds' -> (600, 'scaled'): step rate in Hz and the PD gain mode of
-    ``scenes.ragdoll_pd_gains`` (None: passive)."""
-    rest = scene[len("ragdoll"):]
-    if rest.endswith("pds"):
-        return int(rest[:-3]), "scaled"
-    if rest.endswith("pd"):
-        return int(rest[:-2]), "spec"
-    return int(rest), None
 
 
 # ------------------------------------------------------------------------ output ---

@@ -45,7 +45,7 @@ def main(argv=None):
     args = ap.parse_args(argv)
     os.makedirs(args.out, exist_ok=True)
     world = build()
-    rec = world.record(joints=True)
+    rec = tumble.Recorder(world, joints=True)
     rec.run(args.seconds, fps=60, control=control)
     r = rec.recording()
     target = np.array([target_angle(t) for t in r.time])

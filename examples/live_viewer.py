@@ -7,6 +7,7 @@ slider and press Play to resume from there. Ctrl-C stops. Needs tumble[viewer].
 The same from the command line: ``tumble view stack --contacts``.
 """
 from tumble.apps import scenes
+from tumble.viewer import view
 
 world = scenes.stack()
-world.view(contacts=True, forces=True, follow=None)     # serves until Ctrl-C
+view(world, contacts=True, forces=True, follow=None)     # serves until Ctrl-C

@@ -9,7 +9,7 @@ import argparse
 import os
 
 from tumble.apps import scenes
-from tumble.viewer import export_video, plots
+from tumble.viewer import Recorder, export_video, plots
 
 
 def main(argv=None):
@@ -20,7 +20,7 @@ def main(argv=None):
     os.makedirs(args.out, exist_ok=True)
 
     world = scenes.ragdoll()                          # 18-body figure and two crates
-    rec = world.record(contacts=True, energy=True)    # frames of poses, contacts, energy
+    rec = Recorder(world, contacts=True, energy=True)    # frames of poses, contacts, energy
     rec.run(args.seconds, fps=60, progress=True)      # steps the world, a frame per 1/60 s
     recording = rec.recording()
     path = recording.save(os.path.join(args.out, "ragdoll.npz"))

@@ -31,7 +31,7 @@ def main():
                             hand_of_god=hand, substeps=a.substeps)
     recorder = None
     if a.gif:
-        recorder = world.record(capture_now=False)
+        recorder = tumble.Recorder(world, capture_now=False)
         result = tracker.run(on_frame=lambda w, f: recorder.capture())
     else:
         result = tracker.run()

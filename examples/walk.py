@@ -90,7 +90,7 @@ def main():
     if args.push:
         force = [float(v) for v in args.push.split(",")]
         pushes = [Push(PUSH_BODY, force, world.time + args.push_at, args.push_time)]
-    recorder = world.record(capture_now=False) if args.gif else None
+    recorder = tumble.Recorder(world, capture_now=False) if args.gif else None
     start = (0.0, -2.0) if args.terrain == "hill" else (0.0, 0.0)
     r = run_walk(ctrl, args.duration, pushes=pushes, position=start,
                  on_step=None if recorder is None else (lambda c: recorder.capture()))

@@ -10,12 +10,12 @@ but the order.
 import pytest
 
 # Runs first: many tests, the first of which compiles the serial step, then the batched one.
-FIRST = "tests/test_world.py"
+FIRST = "tests/world/test_world.py"
 
 # Files whose tests compile the same large kernel (the batched, threaded step) run on one
 # worker, so that the second finds it in the cache instead of compiling it alongside.
 SHARED_WORKER = {
-    "tests/test_world.py": "batched-step",
+    "tests/world/test_world.py": "batched-step",
     "tests/pipeline/test_parallel.py": "batched-step",
     "tests/rl/test_imitation.py": "batched-step",
     "tests/rl/test_gym.py": "batched-step",

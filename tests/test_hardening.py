@@ -247,7 +247,7 @@ def test_contacts_of_a_state_must_be_this_models_geoms():
     b.add_geom(None, "plane")
     w = tumble.World(b.build())
     st = w.get_state()
-    c = w._contacts
+    c = w.contact_arrays
     arrays = [np.zeros((1, 1) + a.shape[2:], a.dtype) for a in c]
     arrays[0][0, 0] = (0, 7)
     arrays[1][0, 0] = (0, -1)
@@ -307,7 +307,7 @@ def test_step_count_beyond_int64_and_strings_for_numbers():
         with pytest.raises(ModelError, match=message) as info:
             call()
         assert isinstance(info.value, TumbleError)
-    assert not w._state.applied_force.any() and not w._state.applied_torque.any()
+    assert not w.control_arrays.applied_force.any() and not w.control_arrays.applied_torque.any()
 
 
 # ------------------------------------------------------------ 3. quiet acceptance

@@ -1,6 +1,6 @@
 """tumble: rigid-body dynamics for physics-based character animation, compiled with Numba.
 
-The public API (see the README and DESIGN notes):
+The public API (see the README; ARCHITECTURE.md draws how a step runs):
 
     ModelBuilder, Model   build and validate a model
     World, State          step it and read or set its state

@@ -1,4 +1,9 @@
-"""``noalloc``: the Numba decorator for compiled helpers that allocate nothing.
+"""Every use of Numba's internals in one module, so that a Numba upgrade touches one file:
+``noalloc`` (the ``_nrt`` option and a compiler pass), the namedtuple helpers of compiled
+code (``world_of``, ``copy_arrays``, ...), a clock for compiled code (``ticks``), and the
+entry points that skip the dispatcher (``ENTRY_POINTS``).
+
+``noalloc``: the Numba decorator for compiled helpers that allocate nothing.
 
 Numba counts references to every array a compiled function holds: it increments the
 count of each array it receives when the function starts and decrements it when the
@@ -12,7 +17,7 @@ counts: compiled without Numba's runtime (NRT) it uses its arguments as borrowed
 references, which they are.
 
 Rules for a ``noalloc`` function (Numba enforces the first at compile time, with a
-typing error on the allocating call):
+typing error on the allocating call, and ``noalloc``'s own compiler pass the second):
 
 * it creates no array, list or other object that needs the runtime;
 * it returns no array (nor a view, nor a tuple holding one): the caller would release
@@ -37,7 +42,18 @@ literal argument (``Literal[int](0)``) and once more for the plain type, which a
 the step cost as much compile time as a dozen kernels. For the same reason tests hand
 kernels the array types the pipeline does (read-only model arrays, int32 indices).
 """
-from numba import njit
+import platform
+import time
+
+import numpy as np
+from llvmlite import ir
+from numba import njit, types
+from numba.core import cgutils, errors
+from numba.core.compiler import CompilerBase, DefaultPassBuilder
+from numba.core.compiler_machinery import FunctionPass, register_pass
+from numba.core.typed_passes import NopythonTypeInference
+from numba.extending import intrinsic, overload
+from numba.typed import List as TypedList
 
 try:
     from numba.core.cpu import CPUTargetOptions
@@ -46,13 +62,218 @@ except ImportError:          # pragma: no cover - a Numba that moved its interna
     _HAS_NRT_OPTION = False
 
 
+def _holds_array(t):
+    """Whether the Numba type ``t`` is an array or a tuple holding one."""
+    if isinstance(t, types.Array):
+        return True
+    if isinstance(t, types.BaseTuple):
+        return any(_holds_array(v) for v in t.types)
+    return False
+
+
+@register_pass(mutates_CFG=False, analysis_only=True)
+class _NoArrayReturn(FunctionPass):
+    """Refuses a ``noalloc`` function that returns an array: without the runtime the caller
+    would release a reference it was never given (Numba itself refuses only new arrays)."""
+    _name = "tumble_noalloc_returns_no_array"
+
+    def __init__(self):
+        FunctionPass.__init__(self)
+
+    def run_pass(self, state):
+        if _holds_array(state.return_type):
+            raise errors.TypingError(
+                f"{state.func_id.func_qualname} is @noalloc and returns "
+                f"{state.return_type}: a noalloc function must not return an array "
+                f"(tumble._jit; inline it instead)")
+        return False
+
+
+class _NoallocCompiler(CompilerBase):
+    """Numba's nopython pipeline with ``_NoArrayReturn`` after type inference."""
+
+    def define_pipelines(self):
+        pm = DefaultPassBuilder.define_nopython_pipeline(self.state)
+        pm.add_pass_after(_NoArrayReturn, NopythonTypeInference)
+        pm.finalize()
+        return [pm]
+
+
 def noalloc(fn=None, **options):
     """``njit(cache=True, **options)`` without reference counting (see the module docstring).
 
-    Use as ``@noalloc`` or ``@noalloc(inline="always")``."""
+    Use as ``@noalloc`` or ``@noalloc(inline="always")``. Returning an array is a typing
+    error (``_NoArrayReturn``), raised when the function compiles."""
     options.setdefault("cache", True)
     if _HAS_NRT_OPTION:
         options["_nrt"] = False
+        options["pipeline_class"] = _NoallocCompiler
     if fn is None:
         return lambda f: njit(**options)(f)
     return njit(**options)(fn)
+
+
+# ----------------------------------------------------------------------------------------
+# Namedtuples of arrays, field by field, in compiled code. The state, control and contact
+# tuples carry a leading world axis; these helpers take one world (or a run of worlds) of
+# every field at once, so code that handles fields generically needs no change when a
+# field is added.
+
+def world_of(t, w):
+    """The namedtuple ``t`` of arrays with each array indexed at world ``w`` (compiled).
+
+    A field with a leading world axis only ((nworld,): a per-world counter) becomes the
+    1-element view ``[w:w + 1]``, so writes through it still reach ``t``."""
+    raise NotImplementedError("world_of is only available in compiled code")
+
+
+def worlds_view(t, w0, w1):
+    """The namedtuple ``t`` of arrays with each array sliced to ``[w0:w1]`` (compiled)."""
+    raise NotImplementedError("worlds_view is only available in compiled code")
+
+
+def copy_arrays(t):
+    """The namedtuple ``t`` with every array copied (compiled)."""
+    raise NotImplementedError("copy_arrays is only available in compiled code")
+
+
+def assign_arrays(dst, src):
+    """``dst[i][...] = src[i]`` for every array of the namedtuples (compiled)."""
+    raise NotImplementedError("assign_arrays is only available in compiled code")
+
+
+def _generated(name, args, body, cls=None):
+    """Compile-time source for a function over every field of a namedtuple type."""
+    src = f"def {name}({args}):\n" + body
+    ns = {"cls": cls}
+    exec(src, ns)
+    return ns[name]
+
+
+@overload(world_of)
+def _world_of(t, w):
+    if isinstance(t, types.BaseNamedTuple):
+        fields = ", ".join(f"t[{i}][w:w + 1]" if a.ndim == 1 else f"t[{i}][w]"
+                           for i, a in enumerate(t.types))
+        return _generated("impl", "t, w", f"    return cls({fields})\n", t.instance_class)
+    return None
+
+
+@overload(worlds_view)
+def _worlds_view(t, w0, w1):
+    if isinstance(t, types.BaseNamedTuple):
+        fields = ", ".join(f"t[{i}][w0:w1]" for i in range(len(t.types)))
+        return _generated("impl", "t, w0, w1", f"    return cls({fields})\n", t.instance_class)
+    return None
+
+
+@overload(copy_arrays)
+def _copy_arrays(t):
+    if isinstance(t, types.BaseNamedTuple):
+        fields = ", ".join(f"t[{i}].copy()" for i in range(len(t.types)))
+        return _generated("impl", "t", f"    return cls({fields})\n", t.instance_class)
+    return None
+
+
+@overload(assign_arrays)
+def _assign_arrays(dst, src):
+    if isinstance(dst, types.BaseNamedTuple):
+        body = "".join(f"    dst[{i}][:] = src[{i}]\n" for i in range(len(dst.types)))
+        return _generated("impl", "dst, src", body + "    return 0\n")
+    return None
+
+
+# ----------------------------------------------------------------------------------------
+# A clock compiled code can read. Numba has none, and a ctypes call would keep every
+# function that reads it out of the cache (its address is baked in); an LLVM intrinsic is
+# cached like any other code.
+
+_MACHINE = platform.machine().lower()
+#: Whether ``ticks`` counts time on this machine (x86-64: the time-stamp counter;
+#: AArch64: the virtual counter). Elsewhere it returns 0 and stage times stay 0.
+HAS_TICKS = _MACHINE in ("x86_64", "amd64", "aarch64", "arm64")
+
+
+@intrinsic
+def _read_ticks(typingctx):
+    def codegen(context, builder, signature, args):
+        i64 = ir.IntType(64)
+        if _MACHINE in ("x86_64", "amd64"):
+            fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(i64, []),
+                                                "llvm.readcyclecounter")
+            return builder.call(fn, [])
+        if _MACHINE in ("aarch64", "arm64"):
+            asm = ir.InlineAsm(ir.FunctionType(i64, []), "mrs $0, cntvct_el0", "=r",
+                               side_effect=True)
+            return builder.call(asm, [])
+        return ir.Constant(i64, 0)
+    return types.int64(), codegen
+
+
+@njit(cache=True, inline="always")
+def ticks():
+    """A monotonic counter (int64) in machine-dependent units (``tick_seconds``)."""
+    return _read_ticks()
+
+
+def tick_seconds(calibrate_s=0.02):
+    """Seconds per ``ticks`` unit, measured against ``time.perf_counter`` over
+    ``calibrate_s`` seconds (0.0 when the machine has no counter)."""
+    if not HAS_TICKS:
+        return 0.0
+    ticks()                                   # compile outside the measurement
+    t0, c0 = time.perf_counter(), ticks()
+    while time.perf_counter() - t0 < calibrate_s:
+        pass
+    t1, c1 = time.perf_counter(), ticks()
+    return (t1 - t0) / max(c1 - c0, 1)
+
+
+# ----------------------------------------------------------------------------------------
+# Calling compiled code from Python without the dispatcher's type matching.
+
+def _type_key(x):
+    """What Numba's type of ``x`` depends on, cheaply: for arrays dtype, rank, layout and
+    writability; namedtuples field by field; other values their Python type."""
+    if isinstance(x, np.ndarray):
+        return (x.dtype.str, x.ndim, x.flags.c_contiguous, x.flags.writeable)
+    if isinstance(x, tuple):
+        return (type(x),) + tuple(_type_key(v) for v in x)
+    if isinstance(x, TypedList):
+        return x._numba_type_
+    return type(x)
+
+
+class EntryPoints:
+    """Compiled entry points of Numba dispatchers, found once per argument types.
+
+    Calling an entry point skips the dispatcher's type matching, which costs more than a
+    small world's step; matching once costs 2 ms, so the entry point is remembered for
+    every later call whose arguments have the same types (``_type_key``)."""
+
+    def __init__(self):
+        self._found = {}
+
+    def get(self, dispatcher, args, compiled_only=False):
+        """The entry point of ``dispatcher`` for arguments typed as ``args`` (the dispatcher
+        itself if this Numba does not expose it). With ``compiled_only``, None when
+        nothing is compiled for these types yet (the caller then goes through the
+        dispatcher, which compiles)."""
+        key = (dispatcher, _type_key(args))
+        entry = self._found.get(key)
+        if entry is None:
+            try:
+                sig = tuple(dispatcher.typeof_pyval(a) for a in args)
+                entry = dispatcher.overloads[sig].entry_point
+            except KeyError:
+                if compiled_only:
+                    return None
+                entry = dispatcher
+            except (AttributeError, TypeError):
+                entry = dispatcher
+            self._found[key] = entry
+        return entry
+
+
+#: The process's entry points (a memo: it changes how fast a call starts, never a result).
+ENTRY_POINTS = EntryPoints()

@@ -252,7 +252,7 @@ def test_rule_feeds_the_swing_hip_torque_forward():
     c._last_swing = swing                                 # no stance switch in between
     tau_swing = np.array(w.joint_torque[c.hip[swing]])
     assert np.linalg.norm(tau_swing) > 1.0
-    applied = w._state.applied_torque.reshape(m.nbody, 3)
+    applied = w.control_arrays.applied_torque.reshape(m.nbody, 3)
     applied[:] = 0.0
     c.control()
     assert np.allclose(applied[c.thigh[c.stance]], -tau_swing, atol=1e-12)

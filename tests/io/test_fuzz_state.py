@@ -33,7 +33,7 @@ def make_world(nworld):
 def with_contacts(w):
     """The world's state with one contact per world written in (ball on the plane)."""
     st = w.get_state()
-    c = w._contacts
+    c = w.contact_arrays
     n = 2
     arrays = [np.zeros((w.nworld, n) + a.shape[2:], a.dtype) for a in c]
     geom, body = arrays[0], arrays[1]

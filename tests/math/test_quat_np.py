@@ -38,3 +38,20 @@ def test_slerp_matches_scipy_and_keeps_its_ends(seed, alpha):
     np.testing.assert_allclose(Rotation.from_quat(got).as_matrix(), expected.as_matrix()[0],
                                atol=1e-10)
     assert np.array_equal(Q.qslerp(q0, q1, 0.0), q0)
+
+
+@FAST
+@given(seed=st.integers(0, 2**31 - 1), n=st.integers(1, 6))
+def test_matrix_matches_scipy_and_single_quaternion_helpers_match_vectorised(seed, n):
+    r = rotations(seed, n)
+    q = r.as_quat()
+    np.testing.assert_allclose(Q.qmatrix(q), r.as_matrix(), atol=1e-12)
+    assert Q.qmatrix(q[0]).shape == (3, 3)
+    v = np.random.default_rng(seed).normal(size=3)
+    a, b = q[0], q[-1]
+    np.testing.assert_allclose(Q.qmul_one(a, b), Q.qmul(a, b), atol=1e-15)
+    np.testing.assert_allclose(Q.qconj_one(a), Q.qconj(a), atol=0.0)
+    np.testing.assert_allclose(Q.qrot_one(a, v), Q.qrot(a, v), atol=1e-12)
+    axis = v / np.linalg.norm(v)
+    np.testing.assert_allclose(Q.qaxis_angle_one(axis, 0.7),
+                               Rotation.from_rotvec(0.7 * axis).as_quat(), atol=1e-12)

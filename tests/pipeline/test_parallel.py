@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import tumble
-from bench import tumble_scenes
+from tumble.apps import benchmarks
 
 FIELDS = ("body_pos", "body_quat", "body_vel", "body_angvel", "joint_q", "joint_force")
 
@@ -21,7 +21,7 @@ def batch(model, nworld, parallel, seed=0, **kwargs):
 def test_parallel_worlds_are_bit_identical_to_serial(contact):
     """A falling ragdoll (joints, then contacts) in 5 worlds, stepped on threads and
     serially, in two calls: every state array and contact agrees to the bit."""
-    model = tumble_scenes.ragdoll(600)
+    model = benchmarks.ragdoll(600)
     par, ser = batch(model, 5, True, contact=contact), batch(model, 5, False, contact=contact)
     for n in (300, 150):
         par.step(n)
@@ -37,7 +37,7 @@ def test_parallel_worlds_are_bit_identical_to_serial(contact):
 
 
 def test_parallel_failure_names_the_first_failing_world_and_restores_all():
-    model = tumble_scenes.ragdoll(600)
+    model = benchmarks.ragdoll(600)
     reports = []
     for parallel in (True, False):
         w = batch(model, 4, parallel)
@@ -68,17 +68,17 @@ def test_parallel_batch_grows_its_buffers_like_the_serial_one():
     out = []
     for parallel in (True, False):
         w = tumble.World(model, nworld=3, parallel=parallel, contact="pgs")
-        capacity = w._contacts.depth.shape[1], w._pairs.shape[0]
+        capacity = w.contact_capacity, w.pair_capacity
         w.body_pos[1] = np.random.default_rng(1).uniform(-0.05, 0.05, (40, 3)) + (0, 0, 1.0)
         w.step(5)
-        assert w._contacts.depth.shape[1] > capacity[0] and w._pairs.shape[0] > capacity[1]
-        out.append((w.body_pos.copy(), w._contacts.depth.shape[1]))
+        assert w.contact_capacity > capacity[0] and w.pair_capacity > capacity[1]
+        out.append((w.body_pos.copy(), w.contact_capacity))
     np.testing.assert_array_equal(out[0][0], out[1][0])
     assert out[0][1] == out[1][1]
 
 
 def test_parallel_option_is_checked():
-    model = tumble_scenes.chain()
+    model = benchmarks.chain()
     assert tumble.World(model, nworld=2).parallel
     assert not tumble.World(model).parallel
     with pytest.raises(tumble.ModelError, match="parallel"):

@@ -54,6 +54,25 @@ def test_env_checker_passes():
     env.close()
 
 
+def test_rgb_array_rendering():
+    pytest.importorskip("matplotlib")
+    with warnings.catch_warnings(record=True) as rec:
+        warnings.simplefilter("always")
+        env = gymnasium.make(ID, render_mode="rgb_array", render_size=(96, 64))
+        check_env(env.unwrapped, skip_render_check=False)
+        env.reset(seed=3)
+        first = env.render()
+        for _ in range(5):
+            env.step(env.action_space.sample())
+        later = env.render()
+    assert unexpected(rec) == []
+    assert first.shape == later.shape == (64, 96, 3) and first.dtype == np.uint8
+    assert first.std() > 5.0 and np.any(first != later)      # a picture, and it moves
+    env.close()
+    with pytest.raises(ValueError, match="render_mode must be None or one of"):
+        ImitateEnv(render_mode="ansi")
+
+
 def test_passive_checker_and_spaces():
     with warnings.catch_warnings(record=True) as rec:
         warnings.simplefilter("always")

@@ -60,7 +60,7 @@ def test_png_and_recordings_from_paths_and_recorders(tmp_path):
     with Image.open(tmp_path / "still.png") as im:
         assert im.size == (200, 100)
     world = tumble.World(demo_model())
-    assert export_video(world.record(), tmp_path / "one.png", size=(64, 48)) == 1
+    assert export_video(tumble.Recorder(world), tmp_path / "one.png", size=(64, 48)) == 1
 
 
 def test_export_refuses_bad_requests(tmp_path):

@@ -21,7 +21,7 @@ def _resting_box():
 def test_energy_plot_from_a_recording(tmp_path):
     world = _resting_box()
     world.body_pos[0, 2] = 0.6
-    rec = world.record(energy=True)
+    rec = tumble.Recorder(world, energy=True)
     rec.run(0.5, fps=30)
     fig = plots.plot_energy(rec.recording(), path=tmp_path / "e.png")
     lines = fig.axes[0].get_lines()
@@ -47,7 +47,7 @@ def test_joint_tracking_plot(tmp_path):
 
 def test_contact_forces_of_a_resting_box_carry_its_weight(tmp_path):
     world = _resting_box()
-    rec = world.record(contacts=True, capture_now=False)
+    rec = tumble.Recorder(world, contacts=True, capture_now=False)
     rec.run(0.5, fps=20)
     names, forces = plots.contact_force_series(rec.recording())
     assert names == ["box"]

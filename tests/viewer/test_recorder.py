@@ -34,7 +34,7 @@ def _assert_same(a, b):
 
 def test_a_recorded_run_round_trips_exactly(tmp_path):
     world = _falling_box()
-    rec = world.record(contacts=True, velocities=True, energy=True, joints=True)
+    rec = tumble.Recorder(world, contacts=True, velocities=True, energy=True, joints=True)
     rec.run(1.0, fps=30)
     recording = rec.recording()
     assert len(recording) == 31

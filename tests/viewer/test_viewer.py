@@ -168,7 +168,7 @@ def test_overlays_show_the_frames_contacts_joints_and_com():
     b.add_geom(tip, "sphere", radius=0.05)
     b.add_joint("pin", "ball", arm, tip, anchor=(0.0, 0.0, 0.8))
     world = tumble.World(b.build(), dt=1.0 / 240.0, contact="pgs")
-    rec = world.record(contacts=True)
+    rec = tumble.Recorder(world, contacts=True)
     rec.run(0.3, fps=30)
     recording = rec.recording()
     with Viewer(recording, port=0, paused=True, contacts=True, forces=True, joints=True,

@@ -6,8 +6,9 @@
     PDController, pd_torques, apply_joint_torques             joint PD (in-step or NumPy)
     HandOfGod, jacobian_transpose_torques, StaticBalance, Push, center_of_mass   balance
     MotionTracker, TrackingResult                             tracking motion capture
-    SimbiconController, Gait, load_gait, gait_names, run_walk, WalkResult, BipedMap
-                                                              SIMBICON walking
+    SimbiconController, BipedMap                              SIMBICON walking
+    Gait, GaitState, load_gait, gait_names                    its gait files
+    run_walk, WalkResult                                      measured walks
     Flat, Slope, Heightfield (terrain)                        ground to walk on
 """
 from .pose import Pose, get_pose, joint_targets, rest_alignment, set_pose
@@ -17,8 +18,9 @@ from .balance import (HandOfGod, Push, StaticBalance, center_of_mass, chain_to_r
                       jacobian_transpose_torques)
 from .pd import PDController, apply_joint_torques, pd_torques, targets_from_quats
 from .tracking import MotionTracker, TrackingResult
-from .simbicon import (BipedMap, Gait, GaitState, SimbiconController, WalkResult,
-                       gait_names, load_gait, run_walk)
+from .gait_files import Gait, GaitState, gait_names, load_gait
+from .simbicon import BipedMap, SimbiconController
+from .walk import WalkResult, run_walk
 from .terrain import Flat, Heightfield, Slope, Terrain
 from .skeleton import CharacterModel, Skeleton, games105_character_path, load_character_model
 

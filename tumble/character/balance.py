@@ -113,7 +113,7 @@ def chain_to_root(model, joint):
 def _anchors(world, joints, w=0):
     """World anchors (on the child side) of ``joints``: (len, 3)."""
     m = world.model
-    s = world._state
+    s = world.state_arrays
     out = np.zeros((len(joints), 3))
     for i, j in enumerate(joints):
         c = m.joint_child[j]
@@ -149,7 +149,7 @@ def jacobian_transpose_torques(world, joints, point, force, *, base="parent", wo
 def center_of_mass(world, world_index=0):
     """(position m, velocity m/s) of the dynamic bodies' centre of mass, world frame."""
     m = world.model
-    s = world._state
+    s = world.state_arrays
     dyn = np.isfinite(m.body_mass)
     mass = m.body_mass[dyn]
     c = (mass[:, None] * s.body_pos[world_index, dyn]).sum(0) / mass.sum()

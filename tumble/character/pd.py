@@ -42,7 +42,7 @@ def _per_joint(model, value, what, default=0.0):
 def _joint_frames_w(world, w=0):
     """World rotation of each joint's parent and child joint frames: two Rotation stacks."""
     m = world.model
-    s = world._state
+    s = world.state_arrays
     qa, qb = [], []
     for j in range(m.njoint):
         p, c = m.joint_parent[j], m.joint_child[j]
@@ -74,7 +74,7 @@ def pd_torques(world, target_quat, kp, kd, max_torque=None, target_angvel=None, 
     fa, fb = _joint_frames_w(world, world_index)
     rel = fa.inv() * fb
     err = (Rotation.from_quat(t) * rel.inv()).as_rotvec()         # parent joint frame
-    s = world._state
+    s = world.state_arrays
     w_child = s.body_angvel[world_index, m.joint_child]
     w_parent = np.where((m.joint_parent >= 0)[:, None],
                         s.body_angvel[world_index, np.maximum(m.joint_parent, 0)], 0.0)
@@ -105,7 +105,7 @@ def apply_joint_torques(world, torques, *, world_index=None):
         raise ModelError(f"apply_joint_torques: torques must be finite with shape "
                          f"({m.njoint}, 3), got {tau.shape}")
     w = slice(None) if world_index is None else world_index
-    applied = world._state.applied_torque[w]
+    applied = world.control_arrays.applied_torque[w]
     np.add.at(applied, (..., m.joint_child, slice(None)), tau)
     has_parent = m.joint_parent >= 0
     np.add.at(applied, (..., m.joint_parent[has_parent], slice(None)), -tau[has_parent])

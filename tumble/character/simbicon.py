@@ -50,18 +50,16 @@ the swing thigh follow. On a slope the gait adds ``slope_lean``, ``slope_hip`` a
 hip flexion and the ankles' dorsiflexion; ``min_step_width`` keeps the swing foot from
 landing across the stance foot.
 
-Gaits are plain JSON files (``tumble/character/gaits/*.json``; ``load_gait(name or path)``);
-see ``Gait`` for the fields and sign conventions.
+Gaits are plain JSON files (``tumble/character/gaits/*.json``; ``load_gait(name or path)``
+in ``gait_files``); see ``Gait`` for the fields and sign conventions. ``run_walk`` (in
+``walk``) walks a controller and measures the walk.
 
 Frames: Y up; the character's rest pose (the model's build pose) faces ``forward``
 (+z for the course character) with its left along ``up x forward``. All angles are in
 radians, lengths in metres, times in seconds.
 """
-import json
 import math
-from dataclasses import dataclass, replace
-from importlib import resources
-from pathlib import Path
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -69,271 +67,18 @@ from ..errors import ModelError
 from ..model.validate import positive
 from ..math import quat_np as Q
 from .balance import center_of_mass
+from .feet import foot_lowest_at
+from .gait_files import Gait, GaitState, gait_names, load_gait
 from .pd import apply_joint_torques, targets_from_quats
+from .walk import WalkResult, run_walk
 
+# The gait files and the walk harness have their own modules; their names are also
+# importable from here, where the controller's users have always found them.
 __all__ = ["GaitState", "Gait", "load_gait", "gait_names", "BipedMap", "SimbiconController",
            "WalkResult", "run_walk"]
 
 LEFT, RIGHT = 0, 1
 _REGULATOR_START = 4        # steps walked before the speed regulator acts
-_GROUPS = ("hip", "torso", "knee", "ankle", "toe", "spine", "neck", "arm")
-
-
-# ----------------------------------------------------------------------------------------
-# gait files
-# ----------------------------------------------------------------------------------------
-
-@dataclass(frozen=True)
-class GaitState:
-    """One state of the half cycle (stance leg fixed). Angles in rad.
-
-    duration : s. The first state ends after it; the second ends at swing-foot contact
-        (``on_contact``) or after it at the latest.
-    swing_hip : (flexion, abduction) of the swing thigh in the heading frame: flexion > 0
-        brings the thigh forward of vertical, abduction > 0 takes it outward.
-    swing_knee, stance_knee : flexion, > 0 bends the knee (shank backward).
-    swing_ankle, stance_ankle : dorsiflexion, > 0 lifts the toes (relative to the shank).
-    torso : (pitch, roll) of the pelvis in the heading frame: pitch > 0 leans forward,
-        roll > 0 leans toward the stance side.
-    c_d, c_v : (sagittal, coronal) feedback gains of the swing hip on the COM offset from
-        the stance ankle (rad/m) and the COM velocity (rad s/m).
-    """
-    duration: float
-    on_contact: bool
-    swing_hip: tuple
-    swing_knee: float
-    swing_ankle: float
-    stance_knee: float
-    stance_ankle: float
-    torso: tuple
-    c_d: tuple
-    c_v: tuple
-
-
-@dataclass(frozen=True)
-class Gait:
-    """A walking style: the two states of a step and the servo settings.
-
-    name, description : text.
-    states : (first, second) GaitState; the left and right steps mirror them.
-    gains : {group: (kp N m/rad, kd N m s/rad)} for the groups hip (swing hip), torso
-        (pelvis, through the stance hip), knee, ankle, toe, spine, neck, arm.
-    max_torque : {group: N m} bound on each servo's torque per degree of freedom.
-    speed : target forward speed (m/s; < 0 walks backwards) for the speed regulator, or
-        None to walk at the gait's own speed.
-    speed_gain, speed_p : the regulator's integral gain (rad of swing-hip flexion added
-        after each step per m/s of error of the step's mean speed) and proportional gain
-        (rad per m/s); speed_limit : bound on the offset, rad.
-    turn_rate : rad/s of heading change (> 0 turns left).
-    arms : (down, elbow): shoulders lowered from the T-pose by ``down``, elbows bent by
-        ``elbow`` (forearm forward).
-    swing_foot_world : keep the swing foot level with the heading frame (ankle target
-        computed from the shank's orientation) instead of a joint-local ankle target.
-    stance_ankle_world: likewise for the stance foot (a foot flat on level ground).
-    flexion_range, abduction_range : (low, high) bounds (rad) of the swing hip's targets
-        after feedback; a bounded adduction keeps the swing leg from crossing the stance leg.
-    slope_lean, slope_hip, slope_ankle : rad of torso pitch, swing-hip flexion and ankle
-        dorsiflexion added per rad of terrain slope under the stance foot along the heading
-        (> 0 uphill; the controller's ``terrain`` gives it).
-    min_step_width : m, or None: the swing hip abducts at least enough for the swing foot to
-        land this far outward of the stance ankle (legs do not cross after a lateral push).
-    """
-    name: str
-    description: str
-    states: tuple
-    gains: dict
-    max_torque: dict
-    speed: float = None
-    speed_gain: float = 0.05
-    speed_p: float = 0.0
-    speed_limit: float = 0.3
-    turn_rate: float = 0.0
-    arms: tuple = (1.3, 0.2)
-    swing_foot_world: bool = False
-    stance_ankle_world: bool = False
-    flexion_range: tuple = (-1.2, 1.5)
-    abduction_range: tuple = (-0.15, 0.8)
-    slope_lean: float = 0.0
-    slope_hip: float = 0.0
-    slope_ankle: float = 1.0
-    min_step_width: float = None
-
-    def with_(self, **changes):
-        """A copy with fields replaced (e.g. ``speed=1.2``, ``turn_rate=0.2``)."""
-        return replace(self, **changes)
-
-
-def gait_names():
-    """Names of the gaits shipped with tumble (``tumble/character/gaits/*.json``)."""
-    folder = resources.files("tumble.character").joinpath("gaits")
-    return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".json"))
-
-
-def _line_of(text, path):
-    """1-based line of the field ``path`` ('states[1].c_d', 'gains.knee', 'speed') in the
-    JSON ``text``, found by searching its keys in order (the i-th occurrence of a key after
-    a list field for index i), or None."""
-    pos, skip = 0, 0
-    for part in path.split("."):
-        name, _, index = part.partition("[")
-        for _ in range(skip + 1):
-            i = text.find(f'"{name}"', pos)
-            if i < 0:
-                return None
-            pos = i + 1
-        skip = int(index.rstrip("]")) if index else 0
-    return text.count("\n", 0, pos - 1) + 1
-
-
-class _Reader:
-    """Typed access to a parsed gait file, with errors naming the file, field and line."""
-
-    def __init__(self, source, text):
-        self.source, self.text = source, text
-
-    def fail(self, field_name, msg):
-        line = _line_of(self.text, field_name)
-        at = f" (line {line})" if line else ""
-        raise ModelError(f"gait {self.source}: field '{field_name}'{at}: {msg}")
-
-    def number(self, d, key, where, *, default=None, lo=None, hi=None, required=True):
-        if key not in d:
-            if required and default is None:
-                self.fail(f"{where}{key}", "is missing")
-            return default
-        v = d[key]
-        if v is None and not required:
-            return None
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-            self.fail(f"{where}{key}", f"must be a finite number, got {v!r}")
-        if (lo is not None and v < lo) or (hi is not None and v > hi):
-            self.fail(f"{where}{key}", f"must be in [{lo}, {hi}], got {v!r}")
-        return float(v)
-
-    def pair(self, d, key, where, default=None):
-        if key not in d:
-            if default is None:
-                self.fail(f"{where}{key}", "is missing")
-            return tuple(default)
-        v = d[key]
-        if (not isinstance(v, list) or len(v) != 2 or
-                not all(isinstance(x, (int, float)) and not isinstance(x, bool)
-                        and math.isfinite(x) for x in v)):
-            self.fail(f"{where}{key}", f"must be a list of two finite numbers, got {v!r}")
-        return (float(v[0]), float(v[1]))
-
-    def flag(self, d, key, where, default):
-        v = d.get(key, default)
-        if not isinstance(v, bool):
-            self.fail(f"{where}{key}", f"must be true or false, got {v!r}")
-        return v
-
-
-def _parse_gait(data, source, text):
-    r = _Reader(source, text)
-    if not isinstance(data, dict):
-        raise ModelError(f"gait {source}: the file must hold a JSON object")
-    known = {"name", "description", "states", "gains", "max_torque", "speed", "speed_gain",
-             "speed_p", "speed_limit", "turn_rate", "arms", "swing_foot_world",
-             "stance_ankle_world", "flexion_range", "abduction_range", "slope_lean",
-             "slope_hip", "slope_ankle", "min_step_width"}
-    for k in data:
-        if k not in known:
-            r.fail(k, f"is not a gait field (known: {sorted(known)})")
-    states = data.get("states")
-    if not isinstance(states, list) or len(states) != 2:
-        r.fail("states", "must be a list of two states (the half cycle)")
-    parsed = []
-    state_keys = {"duration", "swing_hip", "swing_knee", "swing_ankle", "stance_knee",
-                  "stance_ankle", "torso", "c_d", "c_v"}
-    for i, s in enumerate(states):
-        where = f"states[{i}]."
-        if not isinstance(s, dict):
-            r.fail(f"states[{i}]", "must be an object")
-        for k in s:
-            if k not in state_keys:
-                r.fail(where + k, f"is not a state field (known: {sorted(state_keys)})")
-        parsed.append(GaitState(
-            duration=r.number(s, "duration", where, lo=1e-3, hi=10.0),
-            on_contact=(i == 1),
-            swing_hip=r.pair(s, "swing_hip", where),
-            swing_knee=r.number(s, "swing_knee", where, lo=-0.5, hi=2.8),
-            swing_ankle=r.number(s, "swing_ankle", where, lo=-1.5, hi=1.5),
-            stance_knee=r.number(s, "stance_knee", where, lo=-0.5, hi=2.8),
-            stance_ankle=r.number(s, "stance_ankle", where, lo=-1.5, hi=1.5),
-            torso=r.pair(s, "torso", where, default=(0.0, 0.0)),
-            c_d=r.pair(s, "c_d", where, default=(0.0, 0.0)),
-            c_v=r.pair(s, "c_v", where, default=(0.0, 0.0))))
-    gains_in = data.get("gains")
-    if not isinstance(gains_in, dict):
-        r.fail("gains", "must be an object {group: [kp, kd]}")
-    gains = {}
-    for g in _GROUPS:
-        kp, kd = r.pair(gains_in, g, "gains.")
-        if kp < 0 or kd < 0:
-            r.fail(f"gains.{g}", f"gains must be >= 0, got {[kp, kd]}")
-        gains[g] = (kp, kd)
-    for k in gains_in:
-        if k not in _GROUPS:
-            r.fail(f"gains.{k}", f"is not a joint group (groups: {list(_GROUPS)})")
-    lim_in = data.get("max_torque", {})
-    if not isinstance(lim_in, dict):
-        r.fail("max_torque", "must be an object {group: N m}")
-    limits = {}
-    for g in _GROUPS:
-        limits[g] = r.number(lim_in, g, "max_torque.", default=math.inf, lo=1e-9)
-    for k in lim_in:
-        if k not in _GROUPS:
-            r.fail(f"max_torque.{k}", f"is not a joint group (groups: {list(_GROUPS)})")
-    name = data.get("name", Path(str(source)).stem)
-    if not isinstance(name, str):
-        r.fail("name", "must be a string")
-    return Gait(name=name, description=str(data.get("description", "")),
-                states=tuple(parsed), gains=gains, max_torque=limits,
-                speed=r.number(data, "speed", "", required=False, lo=-3.0, hi=3.0),
-                speed_gain=r.number(data, "speed_gain", "", default=0.05, lo=0.0),
-                speed_p=r.number(data, "speed_p", "", default=0.0, lo=0.0),
-                speed_limit=r.number(data, "speed_limit", "", default=0.3, lo=0.0),
-                turn_rate=r.number(data, "turn_rate", "", default=0.0, lo=-3.0, hi=3.0),
-                arms=r.pair(data, "arms", "", default=(1.3, 0.2)),
-                swing_foot_world=r.flag(data, "swing_foot_world", "", False),
-                stance_ankle_world=r.flag(data, "stance_ankle_world", "", False),
-                flexion_range=r.pair(data, "flexion_range", "", default=(-1.2, 1.5)),
-                abduction_range=r.pair(data, "abduction_range", "", default=(-0.15, 0.8)),
-                slope_lean=r.number(data, "slope_lean", "", default=0.0, lo=-5.0, hi=5.0),
-                slope_hip=r.number(data, "slope_hip", "", default=0.0, lo=-5.0, hi=5.0),
-                slope_ankle=r.number(data, "slope_ankle", "", default=1.0, lo=-5.0, hi=5.0),
-                min_step_width=r.number(data, "min_step_width", "", required=False, lo=-0.5,
-                                        hi=0.5))
-
-
-def load_gait(gait):
-    """A :class:`Gait` from a shipped name ('walk', 'fast', ...; see ``gait_names()``), a
-    path to a JSON file, or a dict with the same fields. Raises ModelError naming the file,
-    the field and its line for anything malformed."""
-    if isinstance(gait, Gait):
-        return gait
-    if isinstance(gait, dict):
-        return _parse_gait(gait, "<dict>", json.dumps(gait, indent=1))
-    if not isinstance(gait, (str, Path)):
-        raise ModelError(f"load_gait: expected a gait name, a path or a dict, got "
-                         f"{type(gait).__name__}")
-    path = Path(gait)
-    if path.suffix == ".json" or path.exists():
-        if not path.exists():
-            raise ModelError(f"load_gait: no gait file {path}")
-        text, source = path.read_text(), str(path)
-    else:
-        res = resources.files("tumble.character").joinpath("gaits", f"{gait}.json")
-        if not res.is_file():
-            raise ModelError(f"load_gait: no gait named {gait!r}; shipped gaits: {gait_names()}")
-        text, source = res.read_text(), f"{gait}.json"
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as e:
-        raise ModelError(f"gait {source}: invalid JSON at line {e.lineno}, column {e.colno}: "
-                         f"{e.msg}") from None
-    return _parse_gait(data, source, text)
 
 
 # ----------------------------------------------------------------------------------------
@@ -363,34 +108,6 @@ class BipedMap:
     wrist: tuple = ("lWrist", "rWrist")
     forward: tuple = (0.0, 0.0, 1.0)
     up: tuple = (0.0, 1.0, 0.0)
-
-
-def _qm(a, b):
-    """Hamilton product of two single quaternions (4,) (x, y, z, w): plain arithmetic,
-    much faster than the broadcasting helpers for one pair."""
-    ax, ay, az, aw = a
-    bx, by, bz, bw = b
-    return np.array((aw * bx + bw * ax + ay * bz - az * by, aw * by + bw * ay + az * bx - ax * bz,
-                     aw * bz + bw * az + ax * by - ay * bx, aw * bw - ax * bx - ay * by - az * bz))
-
-
-def _qc(q):
-    return np.array((-q[0], -q[1], -q[2], q[3]))
-
-
-def _qr(q, v):
-    """Rotate one vector (3,) by one unit quaternion (4,)."""
-    x, y, z, w = q
-    vx, vy, vz = v
-    tx, ty, tz = 2 * (y * vz - z * vy), 2 * (z * vx - x * vz), 2 * (x * vy - y * vx)
-    return np.array((vx + w * tx + y * tz - z * ty, vy + w * ty + z * tx - x * tz,
-                     vz + w * tz + x * ty - y * tx))
-
-
-def _axis_quat(axis, angle):
-    """Unit quaternion of ``angle`` rad about the unit ``axis`` (3,)."""
-    s = math.sin(0.5 * angle)
-    return np.array([axis[0] * s, axis[1] * s, axis[2] * s, math.cos(0.5 * angle)])
 
 
 # ----------------------------------------------------------------------------------------
@@ -542,9 +259,8 @@ class SimbiconController:
         if about is None:
             about = (pos * mass[:, None]).sum(0) / mass.sum()
         total = np.zeros((3, 3))
-        for b, mb, p in zip(bodies, mass, pos):
-            # body_quat is the principal frame, where body_inertia is diagonal
-            R = _qmat(w.body_quat[b])
+        # body_quat is the principal frame, where body_inertia is diagonal
+        for b, mb, p, R in zip(bodies, mass, pos, Q.qmatrix(w.body_quat[bodies])):
             total += (R * m.body_inertia[b]) @ R.T
             r = p - about
             total += mb * ((r @ r) * np.eye(3) - np.outer(r, r))
@@ -600,17 +316,17 @@ class SimbiconController:
     # ------------------------------------------------------------------ kinematics
     def _seg_rot(self, body):
         """World rotation of ``body`` relative to its rest orientation (4,)."""
-        return _qm(self.world.body_quat[body], _qc(self.model.body_quat0[body]))
+        return Q.qmul_one(self.world.body_quat[body], Q.qconj_one(self.model.body_quat0[body]))
 
     def _yaw_quat(self, yaw):
-        return _axis_quat(self.up, yaw)
+        return Q.qaxis_angle_one(self.up, yaw)
 
     def pelvis_heading(self):
         """Yaw (rad, about up, 0 = the rest pose's forward) of the pelvis's forward axis."""
         return self._pelvis_yaw()
 
     def _pelvis_yaw(self):
-        f = _qr(self._seg_rot(self.pelvis), self.fwd0)
+        f = Q.qrot_one(self._seg_rot(self.pelvis), self.fwd0)
         f = f - (f @ self.up) * self.up
         return math.atan2(f @ self.left0, f @ self.fwd0)
 
@@ -618,7 +334,7 @@ class SimbiconController:
         """World position of ``joint``'s anchor (on its child body)."""
         m, w = self.model, self.world
         c = m.joint_child[joint]
-        return w.body_pos[c] + _qr(w.body_quat[c], m.joint_anchor_b[joint])
+        return w.body_pos[c] + Q.qrot_one(w.body_quat[c], m.joint_anchor_b[joint])
 
     def ground_height(self, p):
         """Height (m) of the terrain under world point ``p`` (Y up)."""
@@ -633,7 +349,7 @@ class SimbiconController:
         for s in range(2):
             sgn = 1.0 if s == LEFT else -1.0
             if self.shoulder[s] >= 0:
-                R[self.shoulder[s]] = _axis_quat(self.fwd0, -sgn * down)
+                R[self.shoulder[s]] = Q.qaxis_angle_one(self.fwd0, -sgn * down)
             if self.elbow[s] >= 0:
                 R[self.elbow[s]] = self._elbow_quat(s, elbow)
         return R
@@ -651,7 +367,7 @@ class SimbiconController:
         bone = m.body_pos0[child] - self._anchor0(k)
         # the flexion must move the bone tip toward forward after the arm is lowered
         sgn = 1.0 if np.cross(axis, bone) @ self.fwd0 > 0 else -1.0
-        return _axis_quat(axis / np.linalg.norm(axis), sgn * flex)
+        return Q.qaxis_angle_one(axis / np.linalg.norm(axis), sgn * flex)
 
     def body_poses(self, pose):
         """Body COM positions (nbody, 3) and orientations (nbody, 4) (world, x y z w) of the
@@ -690,13 +406,13 @@ class SimbiconController:
             # hips flexed by the lean in the pelvis's rest frame (thighs stay vertical once
             # the whole pose is pitched forward by it below)
             R = R.copy()
-            pq = _axis_quat(self.left0, lean)
+            pq = Q.qaxis_angle_one(self.left0, lean)
             for s in range(2):
-                R[self.hip[s]] = _qm(_qc(pq), R[self.hip[s]])
+                R[self.hip[s]] = Q.qmul_one(Q.qconj_one(pq), R[self.hip[s]])
         rot, pos = _forward_kinematics(self, R)
         if lean != 0.0:
             # pitch the pose about the pelvis (its horizontal place is kept)
-            pq = np.broadcast_to(_axis_quat(self.left0, lean), rot.shape)
+            pq = np.broadcast_to(Q.qaxis_angle_one(self.left0, lean), rot.shape)
             p0 = pos[self.pelvis].copy()
             rot = Q.qmul(pq, rot)
             pos = p0 + Q.qrot(pq, pos - p0)
@@ -709,7 +425,7 @@ class SimbiconController:
             b = m.geom_body[g]
             if b not in self.feet_bodies or (m.geom_contype[g] == 0 and m.geom_conaffinity[g] == 0):
                 continue
-            low = min(low, _geom_lowest_at(m, g, pos[b], rot[b], self.up))
+            low = min(low, foot_lowest_at(m, g, pos[b], rot[b], self.up))
             p = pos[b] + np.array([x, 0.0, z])
             ground = max(ground, self.terrain.height(p[0], p[2]))
         shift = np.array([x, ground - low - drop, z])
@@ -756,7 +472,7 @@ class SimbiconController:
     def _frame(self):
         """(forward, left) unit vectors of the desired heading, world."""
         yq = self._yaw_quat(self.heading)
-        return _qr(yq, self.fwd0), _qr(yq, self.left0)
+        return Q.qrot_one(yq, self.fwd0), Q.qrot_one(yq, self.left0)
 
     def _update_fsm(self):
         """Advance the state machine by one control period (after the physics step)."""
@@ -854,37 +570,37 @@ class SimbiconController:
         pitch, roll = st.torso
         pitch += g.slope_lean * slope
         sgn_st = -sgn_sw
-        R_pd = _qm(yq, _qm(_axis_quat(self.fwd0, -sgn_st * roll),
-                                 _axis_quat(self.left0, pitch)))
-        R_thd = _qm(yq, _qm(_axis_quat(self.fwd0, sgn_sw * abd),
-                                  _axis_quat(self.left0, -flex)))
+        R_pd = Q.qmul_one(yq, Q.qmul_one(Q.qaxis_angle_one(self.fwd0, -sgn_st * roll),
+                                 Q.qaxis_angle_one(self.left0, pitch)))
+        R_thd = Q.qmul_one(yq, Q.qmul_one(Q.qaxis_angle_one(self.fwd0, sgn_sw * abd),
+                                  Q.qaxis_angle_one(self.left0, -flex)))
         R = self._stand.copy()
-        R[self.knee[swing]] = _axis_quat(self.left0, st.swing_knee)
-        R[self.knee[stance]] = _axis_quat(self.left0, st.stance_knee)
+        R[self.knee[swing]] = Q.qaxis_angle_one(self.left0, st.swing_knee)
+        R[self.knee[stance]] = Q.qaxis_angle_one(self.left0, st.stance_knee)
         # on a slope the feet meet the ground tilted by the slope: dorsiflex by it
-        R[self.ankle[swing]] = _axis_quat(self.left0, -(st.swing_ankle + g.slope_ankle * slope))
-        R[self.ankle[stance]] = _axis_quat(self.left0, -(st.stance_ankle + g.slope_ankle * slope))
+        R[self.ankle[swing]] = Q.qaxis_angle_one(self.left0, -(st.swing_ankle + g.slope_ankle * slope))
+        R[self.ankle[stance]] = Q.qaxis_angle_one(self.left0, -(st.stance_ankle + g.slope_ankle * slope))
         R_p = self._seg_rot(self.pelvis)
         w_yaw = g.turn_rate * self.up
         if g.swing_foot_world:
             # foot level in the heading frame: ankle rotation = shank^-1 * heading
             R_shank = self._seg_rot(int(self.model.joint_child[self.knee[swing]]))
-            R[self.ankle[swing]] = _qm(_qc(R_shank), _qm(yq, _axis_quat(self.left0, -st.swing_ankle)))
+            R[self.ankle[swing]] = Q.qmul_one(Q.qconj_one(R_shank), Q.qmul_one(yq, Q.qaxis_angle_one(self.left0, -st.swing_ankle)))
         if g.stance_ankle_world:
             R_shank = self._seg_rot(int(self.model.joint_child[self.knee[stance]]))
-            R[self.ankle[stance]] = _qm(_qc(R_shank), _qm(yq, _axis_quat(self.left0, -st.stance_ankle)))
+            R[self.ankle[stance]] = Q.qmul_one(Q.qconj_one(R_shank), Q.qmul_one(yq, Q.qaxis_angle_one(self.left0, -st.stance_ankle)))
         rates = np.zeros((self.model.njoint, 3))
         hs, hw = self.hip[stance], self.hip[swing]
         th_st, th_sw = self.thigh[stance], self.thigh[swing]
         if self.hip_control in ("implicit", "rule"):
             # stance hip: the rotation that puts the pelvis at R_pd given the stance thigh
-            R[hs] = _qm(_qc(R_pd), self._seg_rot(th_st))
-            R[hw] = _qm(_qc(R_p), R_thd)
-            fa_st = _qm(w.body_quat[self.pelvis], self.model.joint_frame_a[hs])
-            fa_sw = _qm(w.body_quat[self.pelvis], self.model.joint_frame_a[hw])
+            R[hs] = Q.qmul_one(Q.qconj_one(R_pd), self._seg_rot(th_st))
+            R[hw] = Q.qmul_one(Q.qconj_one(R_p), R_thd)
+            fa_st = Q.qmul_one(w.body_quat[self.pelvis], self.model.joint_frame_a[hs])
+            fa_sw = Q.qmul_one(w.body_quat[self.pelvis], self.model.joint_frame_a[hw])
             # target rates: damping on the pelvis's and the thigh's world angular velocities
-            rates[hs] = _qr(_qc(fa_st), w.body_angvel[th_st] - w_yaw)
-            rates[hw] = _qr(_qc(fa_sw), w_yaw - w.body_angvel[self.pelvis])
+            rates[hs] = Q.qrot_one(Q.qconj_one(fa_st), w.body_angvel[th_st] - w_yaw)
+            rates[hw] = Q.qrot_one(Q.qconj_one(fa_sw), w_yaw - w.body_angvel[self.pelvis])
             if self.hip_control == "rule" and self._last_swing == swing:
                 # -tau_swing on the stance hip: what the swing hip did to its thigh in the
                 # last physics step (not across a stance switch, when it was the stance hip)
@@ -894,8 +610,8 @@ class SimbiconController:
                 self.last_tau = {"swing": -tau[hs], "stance_feedforward": tau[hs]}
             self._last_swing = swing
         else:
-            R[hs] = _qm(_qc(R_p), self._seg_rot(th_st))   # unused: servo off
-            R[hw] = _qm(_qc(R_p), R_thd)
+            R[hs] = Q.qmul_one(Q.qconj_one(R_p), self._seg_rot(th_st))   # unused: servo off
+            R[hw] = Q.qmul_one(Q.qconj_one(R_p), R_thd)
             h = self.control_dt
             kp_t, kd_t = self._gains("torso")
             kp_h, kd_h = self._gains("hip")
@@ -945,7 +661,7 @@ def _stable_pd(R_d, R, w, w_d, kp, kd, h, inertia, limit):
     rigid body of world inertia tensor ``inertia`` (3, 3) (stable PD, Tan et al. 2011, with
     the h^2 term kept so it is backward Euler): ``tau = kp (e - h w_1) - kd w_1`` with the
     end-of-period rate ``w_1 = w + h I^-1 tau``, solved for tau."""
-    err = Q.qrotvec(_qm(R_d, _qc(R)))
+    err = Q.qrotvec(Q.qmul_one(R_d, Q.qconj_one(R)))
     dw = w - w_d
     rhs = kp * (err - h * dw) - kd * dw
     # (1 + (h kd + h^2 kp) I^-1) tau = rhs  <=>  tau = I (I + h kd + h^2 kp)^-1 rhs
@@ -954,39 +670,6 @@ def _stable_pd(R_d, R, w, w_d, kp, kd, h, inertia, limit):
     if n > limit:
         tau *= limit / n
     return tau
-
-
-def _qmat(q):
-    x, y, z, w = q
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
-
-
-def _geom_corners(m, g):
-    """Points whose lowest bounds the geom from below (box corners, sphere/capsule centres
-    with their radius), geom frame: (points (k, 3), radius)."""
-    from ..model.model import GEOM_TYPES
-    t = {v: k for k, v in GEOM_TYPES.items()}[int(m.geom_type[g])]
-    size = m.geom_size[g]
-    if t == "box":
-        s = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], float)
-        return s * size[:3], 0.0
-    if t == "sphere":
-        return np.zeros((1, 3)), size[0]
-    if t in ("capsule", "cylinder"):
-        return np.array([[0, 0, -size[1]], [0, 0, size[1]]], float), size[0]
-    raise ModelError(f"SimbiconController: foot geom '{m.geom_names[g]}' is a {t}; feet must "
-                     f"be boxes, spheres, capsules or cylinders")
-
-
-def _geom_lowest_at(m, g, body_pos, body_quat, up):
-    """Lowest coordinate along ``up`` of geom g with its body at (body_pos, body_quat)."""
-    pts, r = _geom_corners(m, g)
-    q = Q.qmul(body_quat, m.geom_quat[g])
-    p = body_pos + Q.qrot(body_quat, m.geom_pos[g])
-    world = p + Q.qrot(np.broadcast_to(q, (len(pts), 4)), pts)
-    return float((world @ up).min()) - r
 
 
 def _forward_kinematics(ctrl, R):
@@ -1023,119 +706,3 @@ def _tree_order(m, joint_of_child):
 
     bodies = [b for b in range(m.nbody) if np.isfinite(m.body_mass[b])]
     return sorted(bodies, key=dep)
-
-
-# ----------------------------------------------------------------------------------------
-# measured runs
-# ----------------------------------------------------------------------------------------
-
-@dataclass
-class WalkResult:
-    """Figures of a walk (``run_walk``).
-
-    time : simulated s walked (until the end or the fall). fallen, fall_reason.
-    distance : horizontal distance (m) of the COM from its start; forward_distance : along
-        the initial heading. speed : mean horizontal COM speed (m/s) after ``settle`` s.
-    step_length : mean distance (m) between consecutive foot strikes along the heading
-        (the feet's lateral offset left out); step_time :
-        mean s between strikes; steps : number of strikes.
-    wall_time : s of computation; com : (F, 3) COM per control period; strikes : the
-    controller's foot strikes; pelvis_min_height : lowest pelvis COM height above the
-    terrain (m).
-    """
-    time: float
-    fallen: bool
-    fall_reason: str
-    distance: float
-    forward_distance: float
-    speed: float
-    step_length: float
-    step_time: float
-    steps: int
-    wall_time: float
-    com: np.ndarray
-    strikes: list
-    pelvis_min_height: float = math.nan
-
-    def summary(self):
-        """One line of the figures."""
-        state = f"FELL at {self.time:.2f} s ({self.fall_reason})" if self.fallen else \
-            f"walked {self.time:.1f} s"
-        return (f"{state}: {self.distance:.1f} m, speed {self.speed:.2f} m/s, step length "
-                f"{self.step_length:.3f} m, step time {self.step_time:.3f} s, {self.steps} steps")
-
-
-def run_walk(controller, duration, *, pushes=(), settle=2.0, stop_distance=None,
-             on_step=None, start_speed=0.0, place=True, position=(0.0, 0.0), yaw=0.0):
-    """Walk ``controller`` for ``duration`` s (or until it falls or has gone
-    ``stop_distance`` m) and measure it; returns a :class:`WalkResult`.
-
-    pushes : :class:`~tumble.character.balance.Push` list (start times in world time,
-    ``world.time``). settle : s excluded from the speed and step figures (the start from
-    standing). on_step : called as ``on_step(controller)`` after every control period (e.g.
-    to capture a frame of a ``world.record()`` Recorder). place : put the character
-    standing first (with ``start_speed``, at ``position`` (x, z) facing ``yaw``).
-    """
-    import time as _time
-    c = controller
-    w = c.world
-    if place:
-        c.place(speed=start_speed, position=position, yaw=yaw)
-    com0, _ = center_of_mass(w)
-    n = int(round(duration / c.control_dt))
-    coms = []
-    t0 = _time.perf_counter()
-    pel_min = math.inf
-    up = c.up
-    for _ in range(n):
-        c.step(pushes)
-        com, _ = center_of_mass(w)
-        coms.append(com)
-        p = w.body_pos[c.pelvis]
-        pel_min = min(pel_min, float(p @ up) - c.ground_height(p))
-        if on_step is not None:
-            on_step(c)
-        if c.fallen:
-            break
-        if stop_distance is not None:
-            dh = com - com0
-            dh = dh - (dh @ up) * up
-            if np.linalg.norm(dh) >= stop_distance:
-                break
-    wall = _time.perf_counter() - t0
-    coms = np.array(coms)
-    times = c.control_dt * (np.arange(len(coms)) + 1)
-
-    def horiz(v):
-        return v - np.outer(v @ up, up)
-
-    disp = horiz(coms[-1:] - com0)[0]
-    fwd0 = Q.qrot(_axis_quat(up, yaw), c.fwd0)
-    after = times >= settle
-    if after.sum() >= 2:
-        ca = coms[after]
-        path = np.linalg.norm(np.diff(horiz(ca), axis=0), axis=1).sum()
-        span = times[after][-1] - times[after][0]
-        straight = np.linalg.norm(horiz(ca[-1:] - ca[:1])[0])
-        speed = (straight if c.gait.turn_rate == 0 else path) / span if span > 0 else math.nan
-        if c.gait.speed is not None and c.gait.speed < 0:
-            speed = -speed
-    else:
-        speed = math.nan
-    strikes = [s for s in c.strikes if s[0] >= settle]
-    if len(strikes) >= 2:
-        pts = np.array([s[2] for s in strikes])
-        yaws = np.array([s[3] for s in strikes])
-        mid = 0.5 * (yaws[1:] + yaws[:-1])
-        fw = Q.qrot(np.array([_axis_quat(up, y) for y in mid]), np.broadcast_to(c.fwd0, (len(mid), 3)))
-        # along the heading: the lateral offset between the feet is not step length
-        step_len = float(np.abs(np.sum(np.diff(pts, axis=0) * fw, axis=1)).mean())
-        step_time = float(np.diff([s[0] for s in strikes]).mean())
-    else:
-        step_len = step_time = math.nan
-    return WalkResult(time=float(c.time), fallen=c.fallen, fall_reason=c.fall_reason,
-                      distance=float(np.linalg.norm(disp)),
-                      forward_distance=float(disp @ fwd0), speed=float(speed),
-                      step_length=step_len, step_time=step_time, steps=len(c.strikes),
-                      wall_time=wall, com=coms, strikes=list(c.strikes),
-                      pelvis_min_height=pel_min)

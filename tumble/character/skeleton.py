@@ -17,6 +17,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..io.bvh import Motion
+from ..model.tree import check_tree, tree_order
 
 __all__ = ["Skeleton", "CharacterModel", "load_character_model", "games105_character_path"]
 
@@ -46,25 +47,9 @@ class Skeleton:
     """
 
     def __init__(self, joint_names, parents, rest_positions, up="y"):
-        names = [str(n) for n in joint_names]
-        J = len(names)
         where = "Skeleton"
-        if J == 0:
-            raise ModelError(f"{where}: joint_names is empty")
-        if len(set(names)) != J:
-            dup = sorted({n for n in names if names.count(n) > 1})
-            raise ModelError(f"{where}: duplicate joint names {dup}")
-        parents = np.array(parents, dtype=np.int64).reshape(-1)
-        if parents.shape != (J,):
-            raise ModelError(f"{where}: parents has {parents.size} entries, expected {J}")
-        bad = np.flatnonzero((parents < -1) | (parents >= J))
-        if bad.size:
-            raise ModelError(f"{where}: joint '{names[bad[0]]}' has parent index "
-                             f"{parents[bad[0]]} out of range [-1, {J})")
-        roots = np.flatnonzero(parents == -1)
-        if roots.size != 1:
-            raise ModelError(f"{where}: expected exactly one root (parent -1), got "
-                             f"{[names[i] for i in roots]}")
+        names, parents = check_tree(joint_names, parents, where)
+        J = len(names)
         pos = np.array(rest_positions, dtype=np.float64)
         if pos.shape != (J, 3):
             raise ModelError(f"{where}: rest_positions has shape {pos.shape}, expected ({J}, 3)")
@@ -76,26 +61,9 @@ class Skeleton:
         self.rest_positions = pos
         self.up = up_vector(up, where)
         self._index = {n: i for i, n in enumerate(names)}
-        self._children = [[] for _ in range(J)]
-        for j, p in enumerate(parents):
-            if p >= 0:
-                self._children[p].append(j)
-        self.order = self._topological_order()
+        self.order, self._children = tree_order(parents, names, where)
         self.parents.setflags(write=False)
         self.rest_positions.setflags(write=False)
-
-    def _topological_order(self):
-        """Joint indices, every parent before its children; ModelError on a cycle."""
-        order, stack = [], [self.root]
-        while stack:
-            j = stack.pop()
-            order.append(j)
-            stack.extend(reversed(self._children[j]))
-        if len(order) != len(self.joint_names):
-            lost = sorted(set(range(len(self.joint_names))) - set(order))
-            raise ModelError(f"Skeleton: joints {[self.joint_names[j] for j in lost]} are not "
-                             "connected to the root (cycle in parents)")
-        return order
 
     @classmethod
     def from_motion(cls, motion, root_position=None, up="y"):

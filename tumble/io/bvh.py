@@ -38,6 +38,7 @@ from scipy.spatial.transform import Rotation
 
 from ..errors import ModelError
 from ..math import quat_np as Q
+from ..model.tree import check_tree, tree_order
 from ._files import file_path, read_file, write_text
 
 __all__ = ["Motion", "load_bvh", "load_bvh_string", "save_bvh", "format_bvh"]
@@ -84,7 +85,7 @@ class Motion:
         self.frame_time = frame_time
         self.local_rotations = local_rotations
         self.local_positions = local_positions
-        self._order = _topological_order(parents, joint_names)
+        self._order = tree_order(parents, joint_names, "Motion")[0]
         self._index = {n: i for i, n in enumerate(joint_names)}
 
     # -- construction -------------------------------------------------------
@@ -107,25 +108,9 @@ class Motion:
         channels where ``local_positions`` leaves the offset), and leaves that never
         rotate nor move none (they are written as End Sites).
         """
-        names = [str(n) for n in joint_names]
+        names, parents = check_tree(joint_names, parents, "Motion")
         J = len(names)
-        if J == 0:
-            raise ModelError("Motion: joint_names is empty")
-        if len(set(names)) != J:
-            dup = sorted({n for n in names if names.count(n) > 1})
-            raise ModelError(f"Motion: duplicate joint names {dup}")
-        parents = np.array(parents, dtype=np.int64).reshape(-1)
-        if parents.shape != (J,):
-            raise ModelError(f"Motion: parents has {parents.size} entries, expected {J}")
-        bad = np.flatnonzero((parents < -1) | (parents >= J))
-        if bad.size:
-            raise ModelError(f"Motion: joint '{names[bad[0]]}' has parent index "
-                             f"{parents[bad[0]]} out of range")
-        roots = np.flatnonzero(parents == -1)
-        if roots.size != 1:
-            raise ModelError(f"Motion: expected exactly one root (parent -1), got "
-                             f"{[names[i] for i in roots]}")
-        root = int(roots[0])
+        root = int(np.flatnonzero(parents == -1)[0])
         offsets = _as_float_array(offsets, (J, 3), "offsets")
         rot = np.array(local_rotations, dtype=np.float64)
         if rot.ndim != 3 or rot.shape[1:] != (J, 4):
@@ -414,26 +399,6 @@ def _as_float_array(value, shape, what):
     if not np.all(np.isfinite(arr)):
         raise ModelError(f"Motion: {what} has non-finite values")
     return arr
-
-
-def _topological_order(parents, names):
-    """Joint indices with every parent before its children; ModelError on a cycle."""
-    J = len(parents)
-    children = [[] for _ in range(J)]
-    roots = []
-    for j, p in enumerate(parents):
-        (roots if p < 0 else children[p]).append(j)
-    order = []
-    stack = roots[::-1]
-    while stack:
-        j = stack.pop()
-        order.append(j)
-        stack.extend(children[j][::-1])
-    if len(order) != J:
-        lost = sorted(set(range(J)) - set(order))
-        raise ModelError(f"Motion: joints {[names[j] for j in lost]} are not connected to "
-                         "the root (cycle in parents)")
-    return order
 
 
 def _check_channels(channels, where):

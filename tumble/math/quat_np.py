@@ -1,9 +1,13 @@
 """Vectorised quaternion helpers, (..., 4) arrays (x, y, z, w), broadcast over leading axes.
 
 Plain NumPy, for code that works on whole skeletons and motions at once outside the
-compiled step (motion files, the character layer); the Numba kernels of
-``tumble.math.quat`` do the same for one quaternion at a time.
+compiled step (motion files, the character layer, the viewer); the Numba kernels of
+``tumble.math.quat`` do the same for one quaternion at a time. The ``*_one`` helpers
+at the end take a single quaternion and skip the broadcasting, for per-step
+controller code where that overhead dominates.
 """
+import math
+
 import numpy as np
 
 IDENTITY = np.array([0.0, 0.0, 0.0, 1.0])
@@ -38,6 +42,16 @@ def qrot(q, v):
     u, w = q[..., :3], q[..., 3:]
     t = 2.0 * _cross(u, v)
     return v + w * t + _cross(u, t)
+
+
+def qmatrix(q):
+    """Rotation matrices (..., 3, 3) of unit quaternions (..., 4); (n, 4) gives (n, 3, 3)."""
+    x, y, z, w = np.moveaxis(np.asarray(q, float), -1, 0)
+    return np.stack([
+        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
+        np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
+        np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1),
+    ], -2)
 
 
 def qrotvec(q):
@@ -111,3 +125,31 @@ def qslerp(q0, q1, alpha):
     out = w0 * q0 + w1 * q1
     out /= np.linalg.norm(out, axis=-1, keepdims=True)
     return np.where(np.asarray(alpha) == 0.0, q0, out)
+
+
+def qmul_one(a, b):
+    """Hamilton product ``a * b`` of two single quaternions (4,)."""
+    ax, ay, az, aw = a
+    bx, by, bz, bw = b
+    return np.array((aw * bx + bw * ax + ay * bz - az * by, aw * by + bw * ay + az * bx - ax * bz,
+                     aw * bz + bw * az + ax * by - ay * bx, aw * bw - ax * bx - ay * by - az * bz))
+
+
+def qconj_one(q):
+    """Conjugate of a single quaternion (4,)."""
+    return np.array((-q[0], -q[1], -q[2], q[3]))
+
+
+def qrot_one(q, v):
+    """Rotate one vector (3,) by one unit quaternion (4,)."""
+    x, y, z, w = q
+    vx, vy, vz = v
+    tx, ty, tz = 2 * (y * vz - z * vy), 2 * (z * vx - x * vz), 2 * (x * vy - y * vx)
+    return np.array((vx + w * tx + y * tz - z * ty, vy + w * ty + z * tx - x * tz,
+                     vz + w * tz + x * ty - y * tx))
+
+
+def qaxis_angle_one(axis, angle):
+    """Unit quaternion (4,) of ``angle`` rad about the unit ``axis`` (3,)."""
+    s = math.sin(0.5 * angle)
+    return np.array([axis[0] * s, axis[1] * s, axis[2] * s, math.cos(0.5 * angle)])

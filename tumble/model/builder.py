@@ -10,10 +10,11 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..errors import ModelError, TumbleWarning
-from ..pipeline.joints.types import CORE_ROWS, DOFS, JOINT_TYPES, ROWS_PER_DOF
 from . import mass as massprops
 from . import meshes
-from .model import BODY_KINDS, GEOM_TYPES, Model
+from .model import Model
+from .types import (ACTUATOR_KINDS, BODY_KINDS, CORE_ROWS, DOFS, GEOM_TYPES, JOINT_TYPES,
+                    ROWS_PER_DOF)
 from .validate import index_of, positive, unit_quat, unit_vector, vector
 
 _MASSIVE_SHAPES = ("sphere", "box", "capsule", "cylinder", "convex")
@@ -468,7 +469,7 @@ class ModelBuilder:
             raise ModelError(f"actuator name must be a non-empty string, got {name!r}")
         if any(a["name"] == name for a in self._actuators):
             raise ModelError(f"{where}: an actuator with this name already exists")
-        if kind not in ("motor", "position"):
+        if kind not in ACTUATOR_KINDS:
             raise ModelError(f"{where}: kind must be 'motor' or 'position', got {kind!r}")
         names = [j["name"] for j in self._joints]
         try:
@@ -590,7 +591,7 @@ class ModelBuilder:
         na = len(acts)
         out = dict(names=[a["name"] for a in acts],
                    joint=np.array([a["joint"] for a in acts], np.int32),
-                   kind=np.array([0 if a["kind"] == "motor" else 1 for a in acts], np.int32),
+                   kind=np.array([ACTUATOR_KINDS[a["kind"]] for a in acts], np.int32),
                    axis=np.array([a["axis"] for a in acts], float).reshape(na, 3),
                    gear=np.array([a["gear"] for a in acts], float),
                    kp=np.array([a["kp"] for a in acts], float),

@@ -9,12 +9,9 @@ from collections import namedtuple
 
 import numpy as np
 
+# Type codes live in .types; GEOM_TYPES and STATIC are also read from here by other modules.
+from .types import DYNAMIC, GEOM_TYPES, STATIC  # noqa: F401
 from .validate import index_of
-
-BODY_KINDS = {"dynamic": 0, "kinematic": 1, "static": 2}
-DYNAMIC, KINEMATIC, STATIC = 0, 1, 2
-GEOM_TYPES = {"plane": 0, "sphere": 1, "capsule": 2, "box": 3, "cylinder": 4, "convex": 5,
-              "heightfield": 6}
 
 # What the compiled pipeline reads of a model (one namedtuple so kernels take one argument).
 ModelArrays = namedtuple("ModelArrays", [
@@ -23,7 +20,7 @@ ModelArrays = namedtuple("ModelArrays", [
     "body_inv_mass",      # (nbody,) 1/kg, 0 for kinematic and static bodies
     "body_inertia",       # (nbody, 3) principal moments, kg m^2 (0 when not dynamic)
     "body_inv_inertia",   # (nbody, 3) their inverses, 0 when not dynamic
-    "joint_type",         # (njoint,) int32 codes of pipeline.joints.types
+    "joint_type",         # (njoint,) int32 codes of model.types.JOINT_TYPES
     "joint_parent",       # (njoint,) int32 parent body, -1 for the world
     "joint_child",        # (njoint,) int32 child body
     "joint_anchor_a",     # (njoint, 3) anchor in the parent's COM frame (world if -1), m
@@ -43,7 +40,7 @@ ModelArrays = namedtuple("ModelArrays", [
     "joint_core_rows",    # (njoint,) rows that hold the joint together
     "joint_row_start",    # (njoint,) first row of each joint
     "joint_row_count",    # (njoint,) rows of each joint (core + 4 per DoF)
-    "geom_type",          # (ngeom,) int32 shape codes (pipeline.collision.shapes)
+    "geom_type",          # (ngeom,) int32 codes of model.types.GEOM_TYPES
     "geom_body",          # (ngeom,) int32 owning body, -1 for the world
     "geom_size",          # (ngeom, 3) shape size
     "geom_pos",           # (ngeom, 3) position in the body's COM frame (world if -1)
@@ -68,7 +65,7 @@ ModelArrays = namedtuple("ModelArrays", [
     "exclude_keys",       # (nexclude,) int64 sorted keys min(a,b) * (nbody+1) + max(a,b) of
                           # body pairs that never collide (world = nbody)
     "act_joint",          # (nact,) int32 joint each actuator drives
-    "act_kind",           # (nact,) int32 0 motor, 1 position
+    "act_kind",           # (nact,) int32 ACT_MOTOR or ACT_POSITION (model.types)
     "act_axis",           # (nact, 3) direction in the joint's parent frame
     "act_gear",           # (nact,) joint force per actuator force
     "act_kp",             # (nact,) position gain

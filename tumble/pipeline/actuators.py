@@ -33,17 +33,15 @@ from numba import njit
 from .._jit import noalloc
 
 from ..math.quat import quat_conj, quat_log, quat_mul, quat_rotate
+from ..model.types import ACT_MOTOR, ROWS_PER_DOF
 from .integrate import integrate_velocities
 from .joints.common import INF, angular_row, clear_row, linear_row
 from .joints.rows import _dof_velocity, build_joint_rows, joint_dofs
-from .joints.types import ROWS_PER_DOF
 from .solvers.direct import solve_direct
 from .joints.servo import pd_error, servo_active, servo_row_terms
 
 PD_IMPLICIT, PD_EXPLICIT, PD_STABLE = 0, 1, 2
 PD_MODES = {"implicit": PD_IMPLICIT, "explicit": PD_EXPLICIT, "stable": PD_STABLE}
-ACT_MOTOR, ACT_POSITION = 0, 1
-ACTUATOR_KINDS = {"motor": ACT_MOTOR, "position": ACT_POSITION}
 
 
 @njit(cache=True, inline="always")

@@ -20,10 +20,10 @@ from numba import njit
 from .._jit import noalloc
 
 from ..math.quat import quat_mul, quat_rotate
-from ..model.model import DYNAMIC
+from ..model.types import CONVEX, DYNAMIC, PLANE
 from .collision.broadphase import boxes_overlap, overlapping_pairs
 from .collision.dispatch import collide_geoms, collide_pair, geom_aabb_any
-from .collision.shapes import CONVEX, MAX_CONTACTS_PER_PAIR, PLANE
+from .collision.shapes import MAX_CONTACTS_PER_PAIR
 
 # What collide_world reports besides the contact count.
 COLLIDE_OK, COLLIDE_PAIRS_FULL, COLLIDE_CONTACTS_FULL = 0, 1, 2

@@ -5,7 +5,7 @@ actuators. The gyroscopic term is treated in ``integrate.py``, where its explici
 implicit form is chosen.
 """
 from .._jit import noalloc
-from ..model.model import DYNAMIC
+from ..model.types import DYNAMIC
 
 
 @noalloc

@@ -23,7 +23,7 @@ from numba import njit
 
 from .._jit import noalloc
 from ..math.quat import quat_integrate_exp, quat_integrate_linear, quat_rotate, quat_rotate_inv
-from ..model.model import DYNAMIC, STATIC
+from ..model.types import DYNAMIC, STATIC
 
 GYRO_NONE, GYRO_EXPLICIT, GYRO_IMPLICIT = 0, 1, 2
 QUAT_EXP, QUAT_LINEAR = 0, 1

@@ -48,14 +48,20 @@ def action_space(task):
 class ImitateEnv(gymnasium.Env):
     """One character imitating a clip (``tumble/Imitate-v0``); see the module docs."""
 
-    metadata = {"render_modes": [], "render_fps": 30}
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 30}
 
-    def __init__(self, clip="walk", **kwargs):
+    def __init__(self, clip="walk", render_mode=None, render_size=(480, 270), **kwargs):
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"tumble/Imitate-v0: render_mode must be None or one of "
+                             f"{self.metadata['render_modes']}, got {render_mode!r}")
         kwargs.setdefault("parallel", False)
         self.task = ImitationEnv(1, clip, autoreset=False, **kwargs)
         self.observation_space = observation_space(self.task)
         self.action_space = action_space(self.task)
         self.metadata = dict(self.metadata, render_fps=self.task.control_hz)
+        self.render_mode = render_mode
+        self._render_size = tuple(int(v) for v in render_size)
+        self._renderer = self._camera = None
 
     def reset(self, *, seed=None, options=None):
         super().reset(seed=seed)
@@ -68,6 +74,29 @@ class ImitateEnv(gymnasium.Env):
         out = {"reward_terms": self.task.reward_terms[0], "phase": float(self.task.phase[0]),
                "diverged": bool(info["diverged"][0])}
         return obs[0], float(reward[0]), bool(terminated[0]), bool(truncated[0]), out
+
+    def render(self):
+        """With ``render_mode="rgb_array"``: an (H, W, 3) uint8 image of the character,
+        the camera following its centre of mass (``render_size`` = (W, H) pixels; software
+        rendering, needs ``tumble[viewer]``). None without a render mode."""
+        if self.render_mode is None:
+            return None
+        from ..viewer.render import Renderer, auto_camera
+        from ..viewer.scene import Scene
+        world = self.task.world
+        if self._renderer is None:
+            scene = Scene.from_model(self.task.model)
+            width, height = self._render_size
+            self._renderer = Renderer(scene, width, height)
+            self._camera = auto_camera(scene, world.body_pos, follow="com",
+                                       aspect=width / height)
+        return self._renderer.render(world.body_pos, world.body_quat, self._camera)
+
+    def close(self):
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+        super().close()
 
 
 class ImitateVectorEnv(VectorEnv):

@@ -1,7 +1,7 @@
 """Recording a simulation: poses (and optionally velocities, contacts, energy, joint
 coordinates) frame by frame, saved to and loaded from ``.npz`` exactly.
 
-    rec = tumble.Recorder(world, contacts=True)     # or world.record(contacts=True)
+    rec = tumble.Recorder(world, contacts=True)
     rec.run(5.0, fps=60)                           # steps the world, one frame per 1/60 s
     rec.save("fall.npz")
     recording = tumble.Recording.load("fall.npz")  # replay: tumble view fall.npz

@@ -14,12 +14,13 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from ..errors import ModelError
-from ..model.model import DYNAMIC, GEOM_TYPES, STATIC
+# quat_to_matrix and the shape codes are also imported from here by render and app.
+from ..math.quat_np import qmatrix as quat_to_matrix
+from ..math.quat_np import qmul
+from ..model.types import (BOX, CAPSULE, CONVEX, CYLINDER, DYNAMIC, GEOM_TYPES,  # noqa: F401
+                           HEIGHTFIELD, PLANE, SPHERE, STATIC)
 
 GEOM_NAMES = {code: name for name, code in GEOM_TYPES.items()}
-PLANE, SPHERE, CAPSULE, BOX, CYLINDER, CONVEX, HEIGHTFIELD = (
-    GEOM_TYPES[n] for n in ("plane", "sphere", "capsule", "box", "cylinder", "convex",
-                            "heightfield"))
 
 # Body colours, RGB in 0..1, cycled by body index (muted, distinguishable, colour-blind safe
 # enough for neighbouring limbs).
@@ -46,28 +47,6 @@ def _rgb(value, where):
     if c.min() < 0.0 or c.max() > 1.0:
         raise ModelError(f"{where}: colour components must be in 0..1 (or 0..255), got {value!r}")
     return c
-
-
-def quat_to_matrix(q):
-    """Rotation matrices ``(..., 3, 3)`` of unit quaternions ``(..., 4)`` (x, y, z, w)."""
-    q = np.asarray(q, dtype=float)
-    x, y, z, w = np.moveaxis(q, -1, 0)
-    return np.stack([
-        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
-        np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
-        np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1),
-    ], -2)
-
-
-def quat_multiply(a, b):
-    """Hamilton products ``a * b`` of quaternion arrays (x, y, z, w), broadcast."""
-    a, b = np.asarray(a, float), np.asarray(b, float)
-    ax, ay, az, aw = np.moveaxis(a, -1, 0)
-    bx, by, bz, bw = np.moveaxis(b, -1, 0)
-    return np.stack([aw * bx + bw * ax + ay * bz - az * by,
-                     aw * by + bw * ay + az * bx - ax * bz,
-                     aw * bz + bw * az + ax * by - ay * bx,
-                     aw * bw - ax * bx - ay * by - az * bz], -1)
 
 
 @dataclass(frozen=True, eq=False)
@@ -243,8 +222,8 @@ class Scene:
             qa = quat[a] if a >= 0 else ident
             qc = quat[c]
             anchors[j] = pos[c] + quat_to_matrix(qc) @ self.joint_anchor_b[j]
-            fa = quat_to_matrix(quat_multiply(qa, self.joint_frame_a[j]))
-            fb = quat_to_matrix(quat_multiply(qc, self.joint_frame_b[j]))
+            fa = quat_to_matrix(qmul(qa, self.joint_frame_a[j]))
+            fb = quat_to_matrix(qmul(qc, self.joint_frame_b[j]))
             kind = self.joint_types[j]
             if kind in ("hinge", "slider"):
                 axes.append(fa[:, :1].T)

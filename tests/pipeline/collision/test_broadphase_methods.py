@@ -211,7 +211,7 @@ def _collide(world, route):
     pairs) or 'listed-noalloc' (collide_listed)."""
     from tumble.pipeline.collide import collide_listed, collide_world, listed_pairs
     from tumble.pipeline.contacts.arrays import make_contacts
-    m, s = world.model.arrays, world._state
+    m, s = world.model.arrays, world.state_arrays
     ng = world.model.ngeom
     con = make_contacts(1, 256)
     view = type(con)(*(a[0] for a in con))

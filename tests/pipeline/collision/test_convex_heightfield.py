@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from tumble.model.builder import ModelBuilder
-from tumble.model.model import GEOM_TYPES
+from tumble.model.types import GEOM_TYPES
 from tumble.pipeline.collision.dispatch import (collide_geoms, geom_aabb_any, geom_distance_any,
                                                 raycast_any)
 from tumble.pipeline.collision.shapes import (BOX, CAPSULE, CONVEX, CYLINDER, HEIGHTFIELD,

@@ -4,7 +4,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import tumble
-from bench import scenes
+from tumble.apps import benchmarks
 
 G = 9.81
 MODELS = ["lcp", "pgs", "penalty"]
@@ -80,24 +80,24 @@ def test_ball_bounces_to_its_restitution_height(contact, e):
 
 
 def stack_world(contact, **kwargs):
-    b = tumble.ModelBuilder(gravity=(0, 0, scenes.GRAVITY))
-    b.add_geom(None, "plane", friction=scenes.FRICTION)
-    half = scenes.STACK["half"]
-    for i, p in enumerate(scenes.stack_positions()):
-        b.add_body(f"box{i}", pos=p, mass=scenes.STACK["mass"],
-                   inertia=scenes.box_inertia(scenes.STACK["mass"], half, half, half))
-        b.add_geom(f"box{i}", "box", size=(half, half, half), friction=scenes.FRICTION)
-    return tumble.World(b.build(), dt=scenes.STACK["dt"], contact=contact, **kwargs)
+    b = tumble.ModelBuilder(gravity=(0, 0, benchmarks.GRAVITY))
+    b.add_geom(None, "plane", friction=benchmarks.FRICTION)
+    half = benchmarks.STACK["half"]
+    for i, p in enumerate(benchmarks.stack_positions()):
+        b.add_body(f"box{i}", pos=p, mass=benchmarks.STACK["mass"],
+                   inertia=benchmarks.box_inertia(benchmarks.STACK["mass"], half, half, half))
+        b.add_geom(f"box{i}", "box", size=(half, half, half), friction=benchmarks.FRICTION)
+    return tumble.World(b.build(), dt=benchmarks.STACK["dt"], contact=contact, **kwargs)
 
 
 @pytest.mark.parametrize("contact", ["lcp", "pgs"])
 def test_ten_box_stack_stands(contact):
     w = stack_world(contact)
     top0 = w.body_pos[-1].copy()
-    w.step(scenes.STACK["steps"])
+    w.step(benchmarks.STACK["steps"])
     assert np.linalg.norm(w.body_pos[-1] - top0) < 1e-3       # PyBullet drifts 5.8 mm
     assert np.abs(w.body_vel).max() < 1e-3
-    assert w.lcp_fallbacks <= 0.01 * scenes.STACK["steps"]   # Lemke reports rare failures
+    assert w.lcp_fallbacks <= 0.01 * benchmarks.STACK["steps"]   # Lemke reports rare failures
 
 
 def test_contact_filtering():
@@ -135,9 +135,9 @@ def test_many_contacts_grow_the_buffers():
         b.add_body(f"b{i}", pos=(1.2 * (i % 6), 1.2 * (i // 6), 0.49), mass=1.0,
                    inertia=(1 / 6,) * 3)
         b.add_geom(f"b{i}", "box", size=(0.5, 0.5, 0.5))
-    w = tumble.World(b.build(), contact="pgs")
-    w._contacts = tumble.world.make_contacts(1, 8)          # force a small buffer
+    w = tumble.World(b.build(), contact="pgs", contact_capacity=8)   # a small buffer
     w.step(3)
+    assert w.contact_capacity >= 120
     assert len(w.contacts) == 120
 
 

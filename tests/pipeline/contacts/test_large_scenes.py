@@ -1,23 +1,23 @@
-"""The large contact scenes of bench/scenes.py, solved by PGS (the solver for them)."""
+"""The large contact scenes of tumble.apps.benchmarks, solved by PGS (the solver for them)."""
 import numpy as np
 
 import tumble
-from bench import scenes, tumble_scenes
+from tumble.apps import benchmarks
 
 
 def test_pyramid_of_210_boxes_stands():
     """600 steps at dt = 1/60 (PyBullet's pyramid collapses; MuJoCo's moves 3 cm)."""
-    world = tumble.World(tumble_scenes.pyramid(), dt=scenes.PYRAMID["dt"], contact="pgs")
+    world = tumble.World(benchmarks.pyramid(), dt=benchmarks.PYRAMID["dt"], contact="pgs")
     start = world.body_pos.copy()
-    world.step(scenes.PYRAMID["steps"])
+    world.step(benchmarks.PYRAMID["steps"])
     assert np.all(np.isfinite(world.body_pos))
     assert np.linalg.norm(world.body_pos - start, axis=1).max() < 0.01   # every box within 1 cm
     assert world.contacts.depth.max() < 0.005
 
 
 def test_1000_spheres_settle_in_their_box():
-    s = scenes.SPHERES
-    world = tumble.World(tumble_scenes.spheres(), dt=s["dt"], contact="pgs", iterations=30)
+    s = benchmarks.SPHERES
+    world = tumble.World(benchmarks.spheres(), dt=s["dt"], contact="pgs", iterations=30)
     world.step(s["steps"])
     p = world.body_pos
     half = s["inner"] / 2

@@ -163,7 +163,7 @@ def test_lcp_solves_sliding_rolling_and_torsion_together_without_fallback():
         s1 = w.body_angvel[0, 2]
         for _ in range(60):
             w.step()
-            imp = w._contacts.impulse[0, 0]
+            imp = w.contact_arrays.impulse[0, 0]
             assert abs(imp[3]) <= mu_t * imp[0] * (1 + 1e-9)
             if contact == "lcp":
                 assert abs(imp[1]) + abs(imp[2]) <= mu * imp[0] * (1 + 1e-9)

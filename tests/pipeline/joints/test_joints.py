@@ -6,7 +6,7 @@ import pytest
 
 import tumble
 import tumble.pipeline.joints.common
-from bench import scenes
+from tumble.apps import benchmarks
 from scipy.spatial.transform import Rotation
 
 
@@ -173,19 +173,19 @@ def test_erp_cfm_mapping():
 
 
 def test_chain_scene_stays_together_without_gaining_energy():
-    """The 30-link chain of bench/scenes.py: dt 1/240, 2000 steps."""
-    b = tumble.ModelBuilder(gravity=(0, 0, scenes.GRAVITY))
+    """The 30-link chain of tumble.apps.benchmarks: dt 1/240, 2000 steps."""
+    b = tumble.ModelBuilder(gravity=(0, 0, benchmarks.GRAVITY))
     parent = None
-    for i, link in enumerate(scenes.chain_links()):
+    for i, link in enumerate(benchmarks.chain_links()):
         b.add_body(f"link{i}", pos=link["com"], mass=link["mass"], inertia=link["inertia"])
         b.add_joint(f"joint{i}", "ball", parent, f"link{i}", anchor=link["joint"])
         parent = f"link{i}"
-    w = tumble.World(b.build(), dt=scenes.CHAIN["dt"])
+    w = tumble.World(b.build(), dt=benchmarks.CHAIN["dt"])
     e0 = sum(w.energy())
     worst_gain, worst_gap = -np.inf, 0.0
-    for _ in range(scenes.CHAIN["steps"] // 10):
+    for _ in range(benchmarks.CHAIN["steps"] // 10):
         w.step(10)
-        worst_gain = max(worst_gain, (sum(w.energy()) - e0) / scenes.chain_energy_scale())
+        worst_gain = max(worst_gain, (sum(w.energy()) - e0) / benchmarks.chain_energy_scale())
         worst_gap = max(worst_gap, w.joint_separation().max())
     assert np.all(np.isfinite(w.body_pos))
     assert worst_gap < 1e-3

@@ -11,16 +11,20 @@ import numpy as np
 from hypothesis import example, given, settings, strategies as st
 
 import tumble
-from bench import tumble_scenes
-from tumble.pipeline import step as pipeline_step
+from tumble.apps import benchmarks
+from tumble.pipeline.contacts.arrays import ContactArrays
+from tumble.pipeline.solve import make_solver_caches
 from tumble.pipeline.contacts.rows import build_contact_rows
 from tumble.pipeline.joints.common import INF
 from tumble.pipeline.joints.rows import build_joint_rows
 from tumble.pipeline.joints.servo import JointDrive
 from tumble.pipeline.solvers.common import make_rows_nb, world_inverse_inertia
 from tumble.pipeline.solvers.direct import solve_active_set
+from tumble.pipeline.solvers.guess import guess_states, guessed_active_set, make_held_scratch
 from tumble.pipeline.solvers.mlcp import (FAST_NOT_HANDLED, FAST_SOLVED, guess_on_tree_fast,
                                          make_fast_scratch, mixed_lcp, solve_mlcp)
+from tumble.pipeline.solvers.partition import partition_rows
+from tumble.pipeline.solvers.pyramid import pyramid_lcp
 from tumble.pipeline.solvers.tree import (cached_tree_plan, make_plan_cache, plan_capacity,
                                          tree_body_inverse, tree_factor, tree_plan, tree_solve)
 
@@ -209,17 +213,17 @@ def test_two_joints_between_one_pair_form_one_node():
 
 def scene_rows(world, contacts=False):
     """The rows a step of ``world`` would solve now, and the solver inputs."""
-    m, s, o = world.model.arrays, world._state, world._options()
+    m, s, c, o = world.model.arrays, world.state_arrays, world.control_arrays, world.step_options()
     pos, quat, vel, angvel = s.body_pos[0], s.body_quat[0], s.body_vel[0], s.body_angvel[0]
     ncon = int(s.contact_count[0]) if contacts else 0
     nrow = world.model.nrow + 3 * ncon
     rows, imp = make_rows_nb(nrow), np.zeros(nrow)
-    drive = JointDrive(s.motor_target[0], s.pd_kp[0], s.pd_kd[0], s.pd_max[0],
-                       s.pd_target_quat[0], s.pd_target_q[0], s.pd_target_qd[0],
-                       s.joint_applied[0])
+    drive = JointDrive(c.motor_target[0], c.pd_kp[0], c.pd_kd[0], c.pd_max[0],
+                       c.pd_target_quat[0], c.pd_target_q[0], c.pd_target_qd[0],
+                       c.joint_applied[0])
     build_joint_rows(m, pos, quat, vel, angvel, drive, world.dt, o.erp, o.cfm, rows, True)
     if ncon:
-        cw = pipeline_step.ContactArrays(*[a[0] for a in world._contacts])
+        cw = ContactArrays(*[a[0] for a in world.contact_arrays])
         build_contact_rows(m, pos, vel, angvel, cw, ncon, world.model.nrow, 3, world.dt,
                            o.contact_erp, o.contact_cfm, o.slop, o.bounce_threshold, rows, imp)
     ii = np.zeros((world.model.nbody, 3, 3))
@@ -241,7 +245,7 @@ def direct_both_ways(world):
 
 def test_chain_scene_tree_matches_dense():
     """The benchmark chain (30 ball joints from the world) at several moments of its fall."""
-    world = tumble.World(tumble_scenes.chain())
+    world = tumble.World(benchmarks.chain())
     for _ in range(5):
         world.step(60)
         out = direct_both_ways(world)
@@ -272,7 +276,7 @@ def test_limited_hinge_chain_tree_matches_dense():
 
 def test_ragdoll_mixed_lcp_tree_matches_dense():
     """The benchmark ragdoll on the ground: Schur complement over its joint tree."""
-    world = tumble.World(tumble_scenes.ragdoll(600))
+    world = tumble.World(benchmarks.ragdoll(600))
     seen = 0
     for _ in range(6):
         world.step(150)
@@ -312,7 +316,8 @@ def test_tree_on_a_free_box_matches_dense():
     for _ in range(5):
         world.step(12)
         rows, nrow, im, ii, vel, angvel, imp0 = scene_rows(world, contacts=True)
-        bodies = {int(x) for x in world._contacts.body[0, :world._state.contact_count[0]].ravel()}
+        live = world.state_arrays.contact_count[0]
+        bodies = {int(x) for x in world.contact_arrays.body[0, :live].ravel()}
         out = []
         for allow_tree in (True, False):
             v, w, imp = vel.copy(), angvel.copy(), imp0.copy()
@@ -346,12 +351,12 @@ def check_fast_path(world, steps, every):
     ``solve_mlcp`` does (bit for bit: the same kernels in the same order) or declines and
     leaves its inputs untouched. Returns how many times it solved and was tried."""
     m = world.model
-    cache = pipeline_step.make_solver_caches(m.arrays, np.zeros(0, np.int64), m.nbody)[1]
-    fast = make_fast_scratch(m.nrow + 3 * world._contacts.depth.shape[1], m.nbody, cache)
+    cache = make_solver_caches(m.arrays, np.zeros(0, np.int64), m.nbody)[1]
+    fast = make_fast_scratch(m.nrow + 3 * world.contact_capacity, m.nbody, cache)
     solved = tried = 0
     for _ in range(steps // every):
         world.step(every)
-        if world._state.contact_count[0] == 0:
+        if world.state_arrays.contact_count[0] == 0:
             continue
         status, (got, want), inputs = fast_and_full(world, cache, fast)
         tried += 1
@@ -368,8 +373,10 @@ def check_fast_path(world, steps, every):
 def test_fast_path_solves_the_standing_pd_ragdoll_as_solve_mlcp_does():
     """The benchmark's PD ragdoll at 60 Hz (implicit servos: every joint a six-row node)
     falls, lands and stands: once its plan is kept, the fast path takes nearly every step."""
-    from bench.bench_tumble import make_world
-    world = make_world(tumble_scenes.build("ragdoll60pd"), "implicit-pd", "ragdoll60pd")
+    model = benchmarks.build("ragdoll60pd")
+    world = tumble.World(model, dt=model.timestep, pd="implicit")
+    for name, (kp, kd) in benchmarks.ragdoll_pd_gains(benchmarks.ragdoll_parts(), "spec").items():
+        world.set_pd_gains(name, kp, kd)
     solved, tried = check_fast_path(world, 150, 3)
     assert tried == 50
     assert solved >= 45                     # the first call only plans; landing may decline
@@ -388,11 +395,11 @@ def test_fast_path_declines_what_it_cannot_guess():
 def test_fast_path_declines_without_a_kept_plan():
     """A cache that never planned these rows: the fast path leaves everything to
     ``solve_mlcp`` (which plans), then takes the next call."""
-    world = tumble.World(tumble_scenes.ragdoll(600))
+    world = tumble.World(benchmarks.ragdoll(600))
     world.step(300)
     m = world.model
-    cache = pipeline_step.make_solver_caches(m.arrays, np.zeros(0, np.int64), m.nbody)[1]
-    fast = make_fast_scratch(m.nrow + 3 * world._contacts.depth.shape[1], m.nbody, cache)
+    cache = make_solver_caches(m.arrays, np.zeros(0, np.int64), m.nbody)[1]
+    fast = make_fast_scratch(m.nrow + 3 * world.contact_capacity, m.nbody, cache)
     status, (got, _), inputs = fast_and_full(world, cache, fast)
     assert status == FAST_NOT_HANDLED
     for a, b in zip(got, inputs):
@@ -522,9 +529,8 @@ def pyramid_residual(rows, n, S, c, p):
 
 
 def scratch(n):
-    """The work arrays ``mlcp._guessed_active_set`` takes after ``p``."""
-    return (np.arange(n), np.empty(n, np.int64), np.empty((n, n)), np.empty((n, n)),
-            np.empty(n), np.empty(n), np.empty(n))
+    """The work arrays ``guess.guessed_active_set`` takes after ``p``."""
+    return np.arange(n), make_held_scratch(n), np.empty(n)
 
 
 def contact_problem(rng, ncontact, nbox, nbody):
@@ -549,12 +555,12 @@ def contact_problem(rng, ncontact, nbox, nbody):
     return rows, n, S, c
 
 
-def classified(ML, rows, n):
-    """(idx, where, kind, oth) of contact rows that are all active and none bilateral."""
-    ints = np.zeros((6, n), np.int64)
-    assert ML._sort_rows(rows, n, *ints) == (n, 0)
-    np.testing.assert_array_equal(ints[0], np.arange(n))
-    return ints[0], ints[1], ints[2], ints[4]
+def partitioned(rows, n):
+    """The ``RowPartition`` of contact rows that are all active and none bilateral."""
+    part = partition_rows(rows, n, np.zeros(6 * n, np.int64))
+    assert (part.n, part.nb, part.nn) == (n, 0, n)
+    np.testing.assert_array_equal(part.idx, np.arange(n))
+    return part
 
 
 @FAST
@@ -569,24 +575,23 @@ def test_guessed_active_set_solves_the_lcp(seed, ncontact, nbox, nbody, guess):
     from tumble.pipeline.solvers import mlcp as ML
     rng = np.random.default_rng(seed)
     rows, n, S, c = contact_problem(rng, ncontact, nbox, nbody)
-    idx, where, kind, oth = classified(ML, rows, n)
+    part = partitioned(rows, n)
     scale = np.abs(c).max() + np.abs(S).max()
     p_ref = np.zeros(n)
-    status = ML._pyramid_lcp(rows, idx, where, kind, oth, n, S, c, np.zeros(n), 0, False, p_ref)
+    status = pyramid_lcp(rows, part, S, c, np.zeros(n), 0, False, p_ref)
     if status != 0:
         return                                       # (a failure Lemke reports; rare)
     assert pyramid_residual(rows, n, S, c, p_ref) <= 1e-8 * scale
     last = {"right": p_ref, "perturbed": p_ref * rng.uniform(0.5, 1.5, n),
             "zero": np.zeros(n), "random": rng.normal(size=n)}[guess]
     p = np.zeros(n)
-    assert ML._lcp_on_schur(rows, idx, where, kind, oth, n, S, c, last, 0, p) == 0
+    assert ML._lcp_on_schur(rows, part, S, c, last, 0, p) == 0
     assert pyramid_residual(rows, n, S, c, p) <= 1e-8 * scale
     if guess == "right":
         state = np.zeros(n, np.int64)
-        if ML._guess_states(rows, idx, where, kind, oth, n, p_ref, state, np.zeros(2 * n)):
+        if guess_states(rows, part, p_ref, state, np.zeros(2 * n)):
             p2 = np.zeros(n)
-            took = ML._guessed_active_set(rows, idx, where, kind, oth, n, S, c, state, p2,
-                                          *scratch(n))
+            took = guessed_active_set(rows, part, S, c, state, p2, *scratch(n))
             if took:
                 np.testing.assert_allclose(p2, p_ref, rtol=0,
                                            atol=1e-8 * max(1.0, np.abs(p_ref).max()))
@@ -595,21 +600,18 @@ def test_guessed_active_set_solves_the_lcp(seed, ncontact, nbox, nbody, guess):
 def test_right_guess_skips_lemke():
     """Non-redundant contacts (fewer rows than degrees of freedom) guessed from their own
     solution are solved by the active-set path alone, unless one slides."""
-    from tumble.pipeline.solvers import mlcp as ML
     rng = np.random.default_rng(5)
     took = sliding = 0
     for _ in range(40):
         rows, n, S, c = contact_problem(rng, 2, 1, 3)
-        idx, where, kind, oth = classified(ML, rows, n)
+        part = partitioned(rows, n)
         p_ref = np.zeros(n)
-        assert ML._pyramid_lcp(rows, idx, where, kind, oth, n, S, c, np.zeros(n), 0, False,
-                               p_ref) == 0
+        assert pyramid_lcp(rows, part, S, c, np.zeros(n), 0, False, p_ref) == 0
         state = np.zeros(n, np.int64)
-        if not ML._guess_states(rows, idx, where, kind, oth, n, p_ref, state, np.zeros(2 * n)):
+        if not guess_states(rows, part, p_ref, state, np.zeros(2 * n)):
             sliding += 1
             continue
         p = np.zeros(n)
-        assert ML._guessed_active_set(rows, idx, where, kind, oth, n, S, c, state, p,
-                                      *scratch(n))
+        assert guessed_active_set(rows, part, S, c, state, p, *scratch(n))
         took += 1
     assert took >= 10 and took + sliding == 40

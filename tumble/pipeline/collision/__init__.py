@@ -3,7 +3,8 @@
 All kernels are Numba ``@njit(cache=True)`` functions over arrays and tuples; the
 per-pair routines do not allocate (they write into caller-provided arrays).
 
-Geometry (``shapes``): type codes ``PLANE=0, SPHERE=1, CAPSULE=2, BOX=3, CYLINDER=4``;
+Geometry (``shapes``): type codes ``PLANE=0, SPHERE=1, CAPSULE=2, BOX=3, CYLINDER=4``
+(defined in ``model.types``);
 ``size`` (3,) per geom; world poses ``pos`` (3,), ``quat`` (4,) as (x, y, z, w).
 
 Contacts (``collide_pair`` and the ``collide_X_Y`` routines, ``type_X <= type_Y``)::

@@ -18,12 +18,9 @@ import numpy as np
 from numba import njit
 
 from ...errors import ModelError
-
+from ...model.types import BROADPHASE_GRID, BROADPHASE_SAP, BROADPHASES  # noqa: F401
 from .shapes import geom_aabb
 
-BROADPHASE_SAP, BROADPHASE_GRID = 0, 1
-#: names accepted by ``World(..., broadphase=...)``
-BROADPHASES = {"sap": BROADPHASE_SAP, "grid": BROADPHASE_GRID}
 #: grid cell edge over the median AABB size (largest side); geoms bigger than a cell are
 #: kept out of the grid. Chosen by measurement (bench/bench_collision.py --broadphase).
 GRID_CELL_SCALE = 2.0

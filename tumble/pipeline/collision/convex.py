@@ -22,10 +22,9 @@ import numpy as np
 from numba import njit
 
 from ...math.quat import quat_rotate
-from ._vec import (any_perp, frame_axes, madd, mid, norm, normalize_or, q4, sub, v3, vcross,
-                   vdot, write_contact)
+from ._vec import any_perp, frame_axes, madd, norm, normalize_or, q4, sub, v3, vcross, vdot
 from .gjk import gjk_distance, mpr_penetration
-from .manifold import face_manifold
+from .manifold import add_single_contact, face_manifold
 from .shapes import BOX, CAPSULE, CYLINDER, core_radius, shape_scale, support_core
 
 # Type codes and flags are passed as int(...)/bool(...): Numba specialises a callee on
@@ -145,25 +144,6 @@ def _refine_penetration(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, sc, n, depth, xa
 
 
 @njit(cache=True)
-def _add_single(cnt, dmax, depth0, n, xa, xb, tol, out_point, out_normal, out_depth,
-                out_feature, start):
-    """Append the GJK/MPR contact when no face contact captured its depth."""
-    if cnt > 0 and depth0 <= dmax + tol:
-        return cnt
-    row = start + cnt
-    if cnt == 4:
-        # replace the shallowest face contact
-        row = start
-        for i in range(1, 4):
-            if out_depth[start + i] < out_depth[row]:
-                row = start + i
-        cnt = 3
-    write_contact(out_point, out_normal, out_depth, out_feature, row, mid(xa, xb), n, depth0,
-                  np.int64(0))
-    return cnt + 1
-
-
-@njit(cache=True)
 def _face_feature(on_b, face):
     return 1 + 8 * (6 * on_b + face)
 
@@ -200,8 +180,8 @@ def collide_capsule_cylinder(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margi
                                   out_point, out_normal,
                                   out_depth, out_feature, start)
     tol = 1e-6 * (shape_scale(np.int64(CAPSULE), sa) + shape_scale(np.int64(CYLINDER), sb))
-    return _add_single(cnt, dmax, depth0, n, xa, xb, tol, out_point, out_normal, out_depth,
-                       out_feature, start)
+    return add_single_contact(cnt, dmax, depth0, n, xa, xb, tol, out_point, out_normal,
+                              out_depth, out_feature, start)
 
 
 @njit(cache=True)
@@ -250,8 +230,8 @@ def collide_box_cylinder(pos_a, quat_a, size_a, pos_b, quat_b, size_b, margin, o
                                       _face_feature(np.int64(1), code), out_point, out_normal,
                                       out_depth, out_feature, start)
     tol = 1e-6 * (shape_scale(np.int64(BOX), sa) + shape_scale(np.int64(CYLINDER), sb))
-    return _add_single(cnt, dmax, depth0, n, xa, xb, tol, out_point, out_normal, out_depth,
-                       out_feature, start)
+    return add_single_contact(cnt, dmax, depth0, n, xa, xb, tol, out_point, out_normal,
+                              out_depth, out_feature, start)
 
 
 @njit(cache=True)
@@ -291,5 +271,5 @@ def collide_cylinder_cylinder(pos_a, quat_a, size_a, pos_b, quat_b, size_b, marg
                                       margin, bool(True), _face_feature(np.int64(1), codeb),
                                       out_point, out_normal, out_depth, out_feature, start)
     tol = 1e-6 * (shape_scale(np.int64(CYLINDER), sa) + shape_scale(np.int64(CYLINDER), sb))
-    return _add_single(cnt, dmax, depth0, n, xa, xb, tol, out_point, out_normal, out_depth,
-                       out_feature, start)
+    return add_single_contact(cnt, dmax, depth0, n, xa, xb, tol, out_point, out_normal,
+                              out_depth, out_feature, start)

@@ -11,8 +11,8 @@ Contacts (normal from A to B, midpoint convention of ``primitives``):
   side of the line through those two (like ``box_box``'s reduction). Exact.
   Feature = vertex index.
 * convex against sphere, capsule, box, cylinder or convex: one deepest contact
-  (:func:`hull_contact`): GJK when apart (exact); when the cores overlap, EPA on the
-  cores if both are polytopes (point, segment, box, hull: the global least
+  (:func:`hull_contact`): GJK when apart (exact); when the cores overlap, EPA (``epa``)
+  on the cores if both are polytopes (point, segment, box, hull: the global least
   penetration, exact), else (cylinders) ``convex.convex_contact``'s MPR with
   refinement. When a *face* is found along the contact normal (a box face, a hull
   support face, or a cylinder cap; within about 1.8 degrees, see ``COS_FACE``), it
@@ -45,13 +45,13 @@ import numpy as np
 from numba import njit
 
 from ...math.quat import quat_rotate, quat_rotate_inv
-from ._vec import (any_perp, local_to_world, madd, mid, norm, norm2, normalize_or, q4, scale,
-                   sub, v3, vcross, vdot, write_contact)
+from ._vec import (any_perp, local_to_world, madd, mid, norm, normalize_or, q4, sub, v3, vcross,
+                   vdot, write_contact)
 from .convex import COS_FACE, convex_contact
-from .gjk import _closest_triangle, gjk_distance, replace_portal_vertex
-from .manifold import incident_point, num_candidates, rim_frame
-from .shapes import (BOX, CAPSULE, CONVEX, CYLINDER, SPHERE, core_radius, shape_scale,
-                     support_core)
+from .epa import epa_penetration, polytope_core
+from .gjk import gjk_distance
+from .manifold import add_single_contact, candidate_frame, incident_point, num_candidates
+from .shapes import BOX, CONVEX, CYLINDER, SPHERE, core_radius, shape_scale
 
 #: Slope (tangent of ~1.8 degrees, matching ``COS_FACE``) below which a vertex joins
 #: the support face of the deepest vertex.
@@ -106,302 +106,6 @@ def hull_aabb(verts, pos, quat, margin):
             (pos[0] + hx + margin, pos[1] + hy + margin, pos[2] + hz + margin))
 
 
-# ------------------------------------------------------------------- penetration (EPA)
-
-_EPA_ITER = 96
-_EPA_MAXF = 2048
-
-
-@njit(cache=True)
-def _polytope_core(gtype):
-    """Cores that are polytopes (point, segment, box, hull): EPA is exact on them."""
-    return gtype == SPHERE or gtype == CAPSULE or gtype == BOX or gtype == CONVEX
-
-
-@njit(cache=True)
-def _msupport(ta, pa, qa, sa, va, tb, pb, qb, sb, vb, d):
-    a = support_core(ta, pa, qa, sa, d, va)
-    b = support_core(tb, pb, qb, sb, (-d[0], -d[1], -d[2]), vb)
-    return sub(a, b), a, b
-
-
-@njit(cache=True)
-def _mpr_tetra(ta, pa, qa, sa, va, tb, pb, qb, sb, vb, tol):
-    """A tetrahedron of core Minkowski-difference points containing the origin, from
-    MPR's portal discovery and refinement: ``(ok, W (4, 3), A (4, 3), B (4, 3))``."""
-    W = np.zeros((4, 3))
-    A = np.zeros((4, 3))
-    B = np.zeros((4, 3))
-    ca = pa
-    cb = pb
-    if ta == CONVEX:
-        ca = _hull_centre(pa, qa, va)
-    if tb == CONVEX:
-        cb = _hull_centre(pb, qb, vb)
-    # an interior point off the symmetry lines of the shapes (a centre lies on the
-    # diagonals of a symmetric hull, which makes EPA faces degenerate)
-    s1, p1, q1 = _msupport(ta, pa, qa, sa, va, tb, pb, qb, sb, vb, (0.31, 0.52, 0.79))
-    s2, p2, q2 = _msupport(ta, pa, qa, sa, va, tb, pb, qb, sb, vb, (-0.68, 0.23, -0.41))
-    a0 = madd(madd(ca, sub(p1, ca), 0.0113), sub(p2, ca), 0.0071)
-    b0 = madd(madd(cb, sub(q1, cb), 0.0113), sub(q2, cb), 0.0071)
-    v0 = sub(a0, b0)
-    if norm2(v0) < (tol * 1e-3) ** 2:
-        v0 = (tol * 1e-3, 0.0, 0.0)
-    d = (-v0[0], -v0[1], -v0[2])
-    v1, a1, b1 = _msupport(ta, pa, qa, sa, va, tb, pb, qb, sb, vb, d)
-    if vdot(v1, d) <= 0.0:
-        return False, W, A, B
-    d = vcross(v0, v1)
-    if norm2(d) <= 1e-30 * norm2(v0) * norm2(v1):
-        d = vcross(v0, any_perp(normalize_or(v0, (1.0, 0.0, 0.0))))
-    v2, a2, b2 = _msupport(ta, pa, qa, sa, va, tb, pb, qb, sb, vb, d)
-    if vdot(v2, d) <= 0.0:
-        return False, W, A, B
-    d = vcross(sub(v1, v0), sub(v2, v0))
-    if vdot(d, v0) > 0.0:
-        v1, a1, b1, v2, a2, b2 = v2, a2, b2, v1, a1, b1
-        d = (-d[0], -d[1], -d[2])
-    found = False
-    v3, a3, b3 = v1, a1, b1
-    for _ in range(128):
-        if norm2(d) == 0.0:
-            return False, W, A, B
-        v3, a3, b3 = _msupport(ta, pa, qa, sa, va, tb, pb, qb, sb, vb, d)
-        if vdot(v3, d) <= 0.0:
-            return False, W, A, B
-        if vdot(vcross(v1, v3), v0) < 0.0:
-            v2, a2, b2 = v3, a3, b3
-            d = vcross(sub(v1, v0), sub(v2, v0))
-            continue
-        if vdot(vcross(v3, v2), v0) < 0.0:
-            v1, a1, b1 = v3, a3, b3
-            d = vcross(sub(v1, v0), sub(v2, v0))
-            continue
-        found = True
-        break
-    if not found:
-        return False, W, A, B
-    hit = False
-    for _ in range(128):
-        nn = vcross(sub(v2, v1), sub(v3, v1))
-        if norm2(nn) == 0.0:
-            return False, W, A, B
-        n = normalize_or(nn, (0.0, 0.0, 1.0))
-        if vdot(n, v1) >= 0.0:
-            hit = True
-            break
-        v4, a4, b4 = _msupport(ta, pa, qa, sa, va, tb, pb, qb, sb, vb, n)
-        if vdot(v4, n) < 0.0:
-            return False, W, A, B
-        if vdot(v4, n) - vdot(v1, n) <= tol:
-            return False, W, A, B
-        v1, a1, b1, v2, a2, b2, v3, a3, b3 = replace_portal_vertex(
-            v0, v1, a1, b1, v2, a2, b2, v3, a3, b3, v4, a4, b4)
-    if not hit:
-        return False, W, A, B
-    for k in range(3):
-        W[0, k] = v0[k]
-        W[1, k] = v1[k]
-        W[2, k] = v2[k]
-        W[3, k] = v3[k]
-        A[0, k] = a0[k]
-        A[1, k] = a1[k]
-        A[2, k] = a2[k]
-        A[3, k] = a3[k]
-        B[0, k] = b0[k]
-        B[1, k] = b1[k]
-        B[2, k] = b2[k]
-        B[3, k] = b3[k]
-    return True, W, A, B
-
-
-@njit(cache=True)
-def _hull_centre(pos, quat, verts):
-    sx = sy = sz = 0.0
-    for i in range(verts.shape[0]):
-        sx += verts[i, 0]
-        sy += verts[i, 1]
-        sz += verts[i, 2]
-    k = 1.0 / max(verts.shape[0], 1)
-    return local_to_world(pos, quat, (sx * k, sy * k, sz * k))
-
-
-@njit(cache=True)
-def _row(M, i):
-    return (M[i, 0], M[i, 1], M[i, 2])
-
-
-@njit(cache=True)
-def _face_plane(W, F, f):
-    a = _row(W, F[f, 0])
-    n = vcross(sub(_row(W, F[f, 1]), a), sub(_row(W, F[f, 2]), a))
-    ln = norm(n)
-    if not ln > 0.0:
-        return (0.0, 0.0, 0.0), math.inf
-    n = (n[0] / ln, n[1] / ln, n[2] / ln)
-    return n, vdot(n, a)
-
-
-@njit(cache=True)
-def epa_penetration(ta, pa, qa, sa, va, tb, pb, qb, sb, vb, tol):
-    """Penetration of overlapping polytope cores by the expanding polytope algorithm.
-
-    Returns ``(ok, depth, normal A -> B, point_a, point_b)`` (cores only, radii not
-    added): the closest face of the Minkowski difference to the origin is grown by
-    support points until no support point lies more than ``tol`` beyond it. Exact (up
-    to ``tol``) for polytopes: global, unlike the local refinement of MPR.
-    """
-    bad = (False, 0.0, (0.0, 0.0, 1.0), _Z3, _Z3)
-    ok, W0, A0, B0 = _mpr_tetra(ta, pa, qa, sa, va, tb, pb, qb, sb, vb, tol)
-    if not ok:
-        return bad
-    maxv = 4 + _EPA_ITER
-    W = np.empty((maxv, 3))
-    WA = np.empty((maxv, 3))
-    WB = np.empty((maxv, 3))
-    for i in range(4):
-        for k in range(3):
-            W[i, k] = W0[i, k]
-            WA[i, k] = A0[i, k]
-            WB[i, k] = B0[i, k]
-    nv = 4
-    F = np.empty((_EPA_MAXF, 3), np.int64)
-    FN = np.empty((_EPA_MAXF, 3))
-    FD = np.empty(_EPA_MAXF)
-    alive = np.zeros(_EPA_MAXF, np.bool_)
-    nf = np.int64(0)
-    # the four faces, oriented away from the opposite vertex
-    for f in range(4):
-        i = (f + 1) % 4
-        j = (f + 2) % 4
-        k = (f + 3) % 4
-        a = _row(W, i)
-        n = vcross(sub(_row(W, j), a), sub(_row(W, k), a))
-        if vdot(n, sub(_row(W, f), a)) > 0.0:
-            j, k = k, j
-        F[nf, 0] = i
-        F[nf, 1] = j
-        F[nf, 2] = k
-        n, dd = _face_plane(W, F, nf)
-        FN[nf, 0] = n[0]
-        FN[nf, 1] = n[1]
-        FN[nf, 2] = n[2]
-        FD[nf] = dd
-        alive[nf] = True
-        nf += 1
-    E = np.empty((3 * _EPA_MAXF, 2), np.int64)
-    mark = np.zeros(_EPA_MAXF, np.int64)
-    stack = np.empty(_EPA_MAXF, np.int64)
-    best = -1
-    for it in range(_EPA_ITER + 1):
-        best = -1
-        bd = math.inf
-        for f in range(nf):
-            if alive[f] and FD[f] < bd:
-                bd = FD[f]
-                best = f
-        if best < 0:
-            return bad
-        n = (FN[best, 0], FN[best, 1], FN[best, 2])
-        if nv == maxv:
-            break
-        w, a, b = _msupport(ta, pa, qa, sa, va, tb, pb, qb, sb, vb, n)
-        if vdot(w, n) - bd <= tol:
-            break
-        dup = False
-        for i in range(nv):
-            if norm2(sub(w, _row(W, i))) <= tol * tol:
-                dup = True
-        if dup:
-            break
-        for k in range(3):
-            W[nv, k] = w[k]
-            WA[nv, k] = a[k]
-            WB[nv, k] = b[k]
-        # faces seen from w (or nearly coplanar with it), grown from the closest face
-        # over shared edges so that the removed region stays one patch
-        eps = 10.0 * tol
-        mark[best] = it + 1
-        stack[0] = best
-        ns = 1
-        while ns > 0:
-            ns -= 1
-            f = stack[ns]
-            for e in range(3):
-                i = F[f, e]
-                j = F[f, (e + 1) % 3]
-                for g in range(nf):
-                    if not alive[g] or mark[g] == it + 1:
-                        continue
-                    if (F[g, 0] == j and F[g, 1] == i) or (F[g, 1] == j and F[g, 2] == i) or \
-                            (F[g, 2] == j and F[g, 0] == i):
-                        if FN[g, 0] * (w[0] - W[F[g, 0], 0]) + FN[g, 1] * (w[1] - W[F[g, 0], 1]) \
-                                + FN[g, 2] * (w[2] - W[F[g, 0], 2]) > -eps or FD[g] == math.inf:
-                            mark[g] = it + 1
-                            stack[ns] = g
-                            ns += 1
-                        break
-        ne = 0
-        for f in range(nf):
-            if not alive[f] or mark[f] != it + 1:
-                continue
-            alive[f] = False
-            for e in range(3):
-                i = F[f, e]
-                j = F[f, (e + 1) % 3]
-                found = -1
-                for r in range(ne):
-                    if E[r, 0] == j and E[r, 1] == i:
-                        found = r
-                        break
-                if found >= 0:
-                    E[found, 0] = E[ne - 1, 0]
-                    E[found, 1] = E[ne - 1, 1]
-                    ne -= 1
-                else:
-                    E[ne, 0] = i
-                    E[ne, 1] = j
-                    ne += 1
-        if nf + ne > _EPA_MAXF:
-            return bad
-        for r in range(ne):
-            F[nf, 0] = E[r, 0]
-            F[nf, 1] = E[r, 1]
-            F[nf, 2] = nv
-            n2, d2 = _face_plane(W, F, nf)
-            FN[nf, 0] = n2[0]
-            FN[nf, 1] = n2[1]
-            FN[nf, 2] = n2[2]
-            FD[nf] = d2
-            alive[nf] = True
-            nf += 1
-        nv += 1
-    if best < 0 or not FD[best] >= -tol:
-        return bad      # lost the origin (degenerate faces): the caller falls back to MPR
-    n = (FN[best, 0], FN[best, 1], FN[best, 2])
-    depth = FD[best]
-    p = (n[0] * depth, n[1] * depth, n[2] * depth)
-    # a face of the Minkowski difference may be split in coplanar triangles: take the
-    # one holding the origin's projection
-    pick = best
-    for f in range(nf):
-        if not alive[f] or abs(FD[f] - depth) > tol or \
-                FN[f, 0] * n[0] + FN[f, 1] * n[1] + FN[f, 2] * n[2] < 1.0 - 1e-12:
-            continue
-        a0 = sub(_row(W, F[f, 0]), p)
-        a1 = sub(_row(W, F[f, 1]), p)
-        a2 = sub(_row(W, F[f, 2]), p)
-        if vdot(vcross(a0, a1), n) >= 0.0 and vdot(vcross(a1, a2), n) >= 0.0 and \
-                vdot(vcross(a2, a0), n) >= 0.0:
-            pick = f
-            break
-    i, j, k = F[pick, 0], F[pick, 1], F[pick, 2]
-    l0, l1, l2 = _closest_triangle(sub(_row(W, i), p), sub(_row(W, j), p), sub(_row(W, k), p))
-    xa = madd(madd(scale(_row(WA, i), l0), _row(WA, j), l1), _row(WA, k), l2)
-    xb = madd(madd(scale(_row(WB, i), l0), _row(WB, j), l1), _row(WB, k), l2)
-    return True, depth, n, xa, xb
-
-
 @njit(cache=True)
 def hull_contact(ta, pa, qa, sa, va, tb, pb, qb, sb, vb):
     """Deepest/nearest contact of two shapes, one at least a hull, as
@@ -409,7 +113,7 @@ def hull_contact(ta, pa, qa, sa, va, tb, pb, qb, sb, vb):
     EPA on the cores when they overlap and both are polytopes (points, segments,
     boxes, hulls): the global least penetration, exact. Cylinders keep MPR with
     refinement."""
-    if _polytope_core(ta) and _polytope_core(tb):
+    if polytope_core(ta) and polytope_core(tb):
         ra = core_radius(ta, sa)
         rb = core_radius(tb, sb)
         sc = shape_scale(ta, sa, va) + shape_scale(tb, sb, vb)
@@ -763,6 +467,30 @@ def _world_vertex(gtype, pos, quat, size, verts, k):
 
 
 @njit(cache=True)
+def _reference_face(gtype, pos, quat, size, verts, u, tol, ids, xy, poly):
+    """The shape's candidate reference face along its outward direction ``u`` (unit,
+    world): ``(kind, area, normal, centre, count)``. kind 0: none (normal ``u``, centre
+    ``pos``); 1: the support polygon of a polytope (its ``count`` vertex ids in ``poly``)
+    when it has 3 vertices or more and faces ``u`` within ``COS_FACE``; 2: a cylinder cap
+    facing ``u`` as closely (disc at ``centre``)."""
+    kind = 0
+    area = 0.0
+    f = u
+    c = pos
+    cnt = 0
+    if is_polytope(gtype):
+        cnt, f, area = support_polygon(gtype, pos, quat, size, verts, u, tol, ids, xy, poly)
+        if cnt >= 3 and vdot(f, u) >= COS_FACE:
+            kind = 1
+    elif gtype == CYLINDER:
+        align, c, f = _cap_face(pos, quat, size, u)
+        if align >= COS_FACE:
+            kind = 2
+            area = math.pi * size[0] * size[0]
+    return kind, area, f, c, cnt
+
+
+@njit(cache=True)
 def collide_convex_general(ta, pos_a, quat_a, size_a, va, tb, pos_b, quat_b, size_b, vb,
                            margin, out_point, out_normal, out_depth, out_feature, start):
     """Contacts of A and B, shapes among sphere, capsule, box, cylinder and convex
@@ -782,40 +510,9 @@ def collide_convex_general(ta, pos_a, quat_a, size_a, va, tb, pos_b, quat_b, siz
     xy = np.empty((nmax, 2))
     polya = np.empty(2 * nmax + 2, np.int64)
     polyb = np.empty(2 * nmax + 2, np.int64)
-    nneg = (-n[0], -n[1], -n[2])
-    # candidate reference faces: 0 none, 1 polygon, 2 disc
-    kind_a = 0
-    area_a = 0.0
-    align_a = 0.0
-    fa = n
-    ca = pa
-    cnt_a = 0
-    if is_polytope(ta):
-        cnt_a, fa, area_a = support_polygon(ta, pa, qa, sa, va, n, tol, ids, xy, polya)
-        align_a = vdot(fa, n)
-        if cnt_a >= 3 and align_a >= COS_FACE:
-            kind_a = 1
-    elif ta == CYLINDER:
-        align_a, ca, fa = _cap_face(pa, qa, sa, n)
-        if align_a >= COS_FACE:
-            kind_a = 2
-            area_a = math.pi * sa[0] * sa[0]
-    kind_b = 0
-    area_b = 0.0
-    align_b = 0.0
-    fb = nneg
-    cb = pb
-    cnt_b = 0
-    if is_polytope(tb):
-        cnt_b, fb, area_b = support_polygon(tb, pb, qb, sb, vb, nneg, tol, ids, xy, polyb)
-        align_b = vdot(fb, nneg)
-        if cnt_b >= 3 and align_b >= COS_FACE:
-            kind_b = 1
-    elif tb == CYLINDER:
-        align_b, cb, fb = _cap_face(pb, qb, sb, nneg)
-        if align_b >= COS_FACE:
-            kind_b = 2
-            area_b = math.pi * sb[0] * sb[0]
+    kind_a, area_a, fa, ca, cnt_a = _reference_face(ta, pa, qa, sa, va, n, tol, ids, xy, polya)
+    kind_b, area_b, fb, cb, cnt_b = _reference_face(tb, pb, qb, sb, vb, (-n[0], -n[1], -n[2]),
+                                                    tol, ids, xy, polyb)
     if kind_a == 0 and kind_b == 0:
         write_contact(out_point, out_normal, out_depth, out_feature, start, mid(xa, xb), n,
                       depth0, int(0))
@@ -832,19 +529,8 @@ def collide_convex_general(ta, pos_a, quat_a, size_a, va, tb, pos_b, quat_b, siz
     cnt, dmax = _face_contacts(tr, pr, qr, sr, vr, kind, nref, cref, rpoly, nrp, ti, pi, qi, si,
                                vi, use_b, margin, tol, ids, xy, out_point, out_normal, out_depth,
                                out_feature, start)
-    tol6 = 1e-6 * sc
-    if cnt > 0 and depth0 <= dmax + tol6:
-        return cnt
-    row = start + cnt
-    if cnt == 4:
-        row = start
-        for i in range(1, 4):
-            if out_depth[start + i] < out_depth[row]:
-                row = start + i
-        cnt = 3
-    write_contact(out_point, out_normal, out_depth, out_feature, row, mid(xa, xb), n, depth0,
-                  int(0))
-    return cnt + 1
+    return add_single_contact(cnt, dmax, depth0, n, xa, xb, 1e-6 * sc, out_point, out_normal,
+                              out_depth, out_feature, start)
 
 
 @njit(cache=True)
@@ -942,13 +628,7 @@ def _face_contacts(tr, pr, qr, sr, vr, kind, nref, cap_c, rpoly, nrp, ti, pi, qi
         if ti == SPHERE:
             return 0, -math.inf
         # round incident shape: its manifold candidates inside the polygon
-        if ti == CYLINDER:
-            rim_a, rim_s, rim_v, rim_u = rim_frame(pi, qi, nref)
-        else:
-            rim_a = (0.0, 0.0, 1.0)
-            rim_s = 1.0
-            rim_v = (1.0, 0.0, 0.0)
-            rim_u = (0.0, 1.0, 0.0)
+        rim_a, rim_s, rim_v, rim_u = candidate_frame(ti, pi, qi, nref)
         nc = num_candidates(ti)
         cand = np.empty((nc, 7))
         m = np.int64(0)

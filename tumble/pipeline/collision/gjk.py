@@ -5,11 +5,13 @@ Shapes are given as ``(gtype, pos, quat, size)`` tuples of plain values.
 * :func:`gjk_distance` works on the *cores* (sphere centre, capsule segment, box,
   cylinder; see ``shapes.support_core``) and returns their distance and closest
   points. Add the radii for the rounded shapes.
-* :func:`mpr_penetration` (Minkowski portal refinement, "XenoCollide") finds, for
-  overlapping shapes, the penetration normal and depth along the ray from the
-  interior point ``c_a - c_b`` through the origin of the Minkowski difference
-  ``A - B``. The depth is exact whenever that ray leaves through the face of
-  least penetration (flat contacts) and an upper bound otherwise.
+* :func:`mpr_portal` (Minkowski portal refinement, "XenoCollide") finds a portal: a
+  triangle of support points of the Minkowski difference ``A - B`` that the ray from
+  an interior point through the origin crosses. :func:`mpr_penetration` refines it
+  and finds, for overlapping shapes, the penetration normal and depth along the ray
+  from ``c_a - c_b`` through the origin. The depth is exact whenever that ray leaves
+  through the face of least penetration (flat contacts) and an upper bound
+  otherwise. EPA (``epa``) starts from a portal too.
 
 Neither allocates: the simplices live in tuples.
 """
@@ -18,7 +20,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ._vec import add, madd, norm, norm2, normalize_or, scale, sub, vcross, vdot
+from ._vec import add, any_perp, madd, norm, norm2, normalize_or, scale, sub, vcross, vdot
 from .shapes import support_core
 
 GJK_MAX_ITER = 128
@@ -267,14 +269,77 @@ def gjk_distance(ta, pa, qa, sa, tb, pb, qb, sb, va=None, vb=None):
 
 # ------------------------------------------------------------------------------ MPR
 
+# What mpr_portal found.
+PORTAL_MISS, PORTAL_FOUND, PORTAL_ON_RAY = 0, 1, 2
+
+
 @njit(cache=True)
-def _msup(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, d, va, vb):
-    """Support of ``A - B`` (shapes inflated by ``ra``, ``rb``) in direction ``d``:
-    ``(w, point_a, point_b)``."""
-    u = normalize_or(d, (1.0, 0.0, 0.0))
-    a = madd(support_core(ta, pa, qa, sa, u, va), u, ra)
-    b = madd(support_core(tb, pb, qb, sb, (-u[0], -u[1], -u[2]), vb), u, -rb)
+def minkowski_support(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, d, va, vb, unit):
+    """Support of ``A - B`` in direction ``d``: ``(w, point_a, point_b)``.
+
+    ``unit``: along ``d`` normalised, the cores inflated by the radii ``ra``, ``rb``
+    (MPR on the rounded shapes); else along ``d`` as given, on the cores (EPA).
+    """
+    if unit:
+        u = normalize_or(d, (1.0, 0.0, 0.0))
+        a = madd(support_core(ta, pa, qa, sa, u, va), u, ra)
+        b = madd(support_core(tb, pb, qb, sb, (-u[0], -u[1], -u[2]), vb), u, -rb)
+    else:
+        a = support_core(ta, pa, qa, sa, d, va)
+        b = support_core(tb, pb, qb, sb, (-d[0], -d[1], -d[2]), vb)
     return sub(a, b), a, b
+
+
+@njit(cache=True)
+def mpr_portal(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, va, vb, v0, tol, unit):
+    """MPR portal discovery: a triangle ``(v1, v2, v3)`` of support points of ``A - B``
+    (``minkowski_support`` with ``unit``) that the ray from the interior point ``v0``
+    through the origin crosses.
+
+    Returns ``(status, v0, v1, a1, b1, v2, a2, b2, v3, a3, b3)``: ``v0`` moved off the
+    origin by ``tol * 1e-3`` if it was closer, each ``v`` with its witness points on A
+    and B. ``status``: PORTAL_FOUND; PORTAL_MISS (a support plane separates the shapes);
+    PORTAL_ON_RAY when ``unit`` and the origin lies on the segment ``v0 - v1`` (only
+    ``v1`` is set; the ray leaves through it). Without ``unit`` that case turns the
+    search aside instead.
+    """
+    if norm2(v0) < (tol * 1e-3) ** 2:
+        v0 = (tol * 1e-3, 0.0, 0.0)
+    d = (-v0[0], -v0[1], -v0[2])
+    v1, a1, b1 = minkowski_support(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, d, va, vb, unit)
+    if vdot(v1, d) <= 0.0:
+        return PORTAL_MISS, v0, v1, a1, b1, v1, a1, b1, v1, a1, b1
+    d = vcross(v0, v1)
+    if norm2(d) <= 1e-30 * norm2(v0) * norm2(v1):
+        if unit:
+            return PORTAL_ON_RAY, v0, v1, a1, b1, v1, a1, b1, v1, a1, b1
+        d = vcross(v0, any_perp(normalize_or(v0, (1.0, 0.0, 0.0))))
+    v2, a2, b2 = minkowski_support(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, d, va, vb, unit)
+    if vdot(v2, d) <= 0.0:
+        return PORTAL_MISS, v0, v1, a1, b1, v2, a2, b2, v2, a2, b2
+    d = vcross(sub(v1, v0), sub(v2, v0))
+    if vdot(d, v0) > 0.0:
+        v1, a1, b1, v2, a2, b2 = v2, a2, b2, v1, a1, b1
+        d = (-d[0], -d[1], -d[2])
+    v3 = v1
+    a3 = a1
+    b3 = b1
+    for _ in range(MPR_MAX_ITER):
+        if norm2(d) == 0.0:
+            break
+        v3, a3, b3 = minkowski_support(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, d, va, vb, unit)
+        if vdot(v3, d) <= 0.0:
+            break
+        if vdot(vcross(v1, v3), v0) < 0.0:
+            v2, a2, b2 = v3, a3, b3
+            d = vcross(sub(v1, v0), sub(v2, v0))
+            continue
+        if vdot(vcross(v3, v2), v0) < 0.0:
+            v1, a1, b1 = v3, a3, b3
+            d = vcross(sub(v1, v0), sub(v2, v0))
+            continue
+        return PORTAL_FOUND, v0, v1, a1, b1, v2, a2, b2, v3, a3, b3
+    return PORTAL_MISS, v0, v1, a1, b1, v2, a2, b2, v3, a3, b3
 
 
 @njit(cache=True)
@@ -308,49 +373,14 @@ def mpr_penetration(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, tol, va=None, vb=Non
     vertices of ``CONVEX`` shapes.
     """
     miss = (False, (0.0, 0.0, 1.0), 0.0, _Z3, _Z3)
-    v0 = sub(pa, pb)
-    if norm2(v0) < (tol * 1e-3) ** 2:
-        v0 = (tol * 1e-3, 0.0, 0.0)
-    d = (-v0[0], -v0[1], -v0[2])
-    v1, a1, b1 = _msup(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, d, va, vb)
-    if vdot(v1, d) <= 0.0:
+    status, v0, v1, a1, b1, v2, a2, b2, v3, a3, b3 = mpr_portal(
+        ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, va, vb, sub(pa, pb), tol, True)
+    if status == PORTAL_MISS:
         return miss
-    d = vcross(v0, v1)
-    if norm2(d) <= 1e-30 * norm2(v0) * norm2(v1):
-        # origin on the segment v0-v1: the ray leaves through v1
+    if status == PORTAL_ON_RAY:
         nv = norm(v0)
         n = (-v0[0] / nv, -v0[1] / nv, -v0[2] / nv)
         return True, n, vdot(v1, n), a1, b1
-    v2, a2, b2 = _msup(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, d, va, vb)
-    if vdot(v2, d) <= 0.0:
-        return miss
-    d = vcross(sub(v1, v0), sub(v2, v0))
-    if vdot(d, v0) > 0.0:
-        v1, a1, b1, v2, a2, b2 = v2, a2, b2, v1, a1, b1
-        d = (-d[0], -d[1], -d[2])
-    # portal discovery: find v3 so that the ray v0 -> origin crosses (v1, v2, v3)
-    found = False
-    v3 = v1
-    a3 = a1
-    b3 = b1
-    for _ in range(MPR_MAX_ITER):
-        if norm2(d) == 0.0:
-            return miss
-        v3, a3, b3 = _msup(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, d, va, vb)
-        if vdot(v3, d) <= 0.0:
-            return miss
-        if vdot(vcross(v1, v3), v0) < 0.0:
-            v2, a2, b2 = v3, a3, b3
-            d = vcross(sub(v1, v0), sub(v2, v0))
-            continue
-        if vdot(vcross(v3, v2), v0) < 0.0:
-            v1, a1, b1 = v3, a3, b3
-            d = vcross(sub(v1, v0), sub(v2, v0))
-            continue
-        found = True
-        break
-    if not found:
-        return miss
     # portal refinement
     hit = False
     n = (0.0, 0.0, 1.0)
@@ -361,7 +391,7 @@ def mpr_penetration(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, tol, va=None, vb=Non
         n = normalize_or(nn, n)
         if not hit and vdot(n, v1) >= 0.0:
             hit = True
-        v4, a4, b4 = _msup(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, n, va, vb)
+        v4, a4, b4 = minkowski_support(ta, pa, qa, sa, ra, tb, pb, qb, sb, rb, n, va, vb, True)
         d4 = vdot(v4, n)
         if not hit and d4 < 0.0:
             return miss

@@ -52,7 +52,7 @@ from ._vec import local_to_world, madd, normalize_or, q4, sub, v3, vcross, vdot
 from .convex import COS_FACE
 from .convex_hull import hull_aabb, is_polytope, poly_count, poly_local, raycast_convex, select4
 from .gjk import gjk_distance
-from .manifold import incident_point, num_candidates, rim_frame
+from .manifold import candidate_frame, incident_point, num_candidates
 from .raycast import raycast_geom
 from .shapes import CONVEX, core_radius, geom_aabb, shape_scale, support
 
@@ -415,7 +415,7 @@ def collide_hfield(H, nr, nc, hsize, pos_h, quat_h, tb, pos_b, quat_b, size_b, v
             for j in range(j0, j1 + 1):
                 for t in range(2):
                     p0, p1, p2, n = hfield_triangle(H, nr, nc, hsize, i, j, t)
-                    rim_a, rim_s, rim_v, rim_u = rim_frame(pl, ql, n)
+                    rim_a, rim_s, rim_v, rim_u = candidate_frame(tb, pl, ql, n)
                     T = 2 * (i * (nc - 1) + j) + t
                     for k in range(nround):
                         valid, p, f = incident_point(tb, pl, ql, sb, k, n, rim_a, rim_s, rim_v,

@@ -26,7 +26,7 @@ from numba import njit
 from ..._jit import noalloc
 
 from ...math.quat import quat_rotate
-from ._vec import madd, norm, sub, vcross, vdot, write_contact
+from ._vec import madd, mid, norm, sub, vcross, vdot, write_contact
 from .shapes import BOX, CAPSULE, CYLINDER
 
 # Above this |axis . n| the cylinder counts as standing upright on the face and the
@@ -61,6 +61,16 @@ def rim_frame(pos, quat, n):
         v = quat_rotate(quat, (1.0, 0.0, 0.0))
     u = vcross(a, v)
     return a, s, v, u
+
+
+@noalloc
+def candidate_frame(gtype, pos, quat, n):
+    """The rim frame ``(a, s, v, u)`` that ``incident_point`` reads: ``rim_frame`` for a
+    cylinder against a face of outward normal ``n``; a placeholder the other shapes
+    ignore."""
+    if gtype == CYLINDER:
+        return rim_frame(pos, quat, n)
+    return (0.0, 0.0, 1.0), 1.0, (1.0, 0.0, 0.0), (0.0, 1.0, 0.0)
 
 
 @noalloc
@@ -143,13 +153,7 @@ def face_manifold(gtype, pos, quat, size, face_pt, n, t1, t2, e1, e2, is_disc, m
     is shape B). Feature = ``feature_base + candidate feature``.
     Returns ``(count, depth of the deepest written contact or -inf)``.
     """
-    if gtype == CYLINDER:
-        rim_a, rim_s, rim_v, rim_u = rim_frame(pos, quat, n)
-    else:
-        rim_a = (0.0, 0.0, 1.0)
-        rim_s = 1.0
-        rim_v = (1.0, 0.0, 0.0)
-        rim_u = (0.0, 1.0, 0.0)
+    rim_a, rim_s, rim_v, rim_u = candidate_frame(gtype, pos, quat, n)
     ncand = num_candidates(gtype)
     sgn = -1.0 if flip else 1.0
     normal = (sgn * n[0], sgn * n[1], sgn * n[2])
@@ -194,3 +198,24 @@ def face_manifold(gtype, pos, quat, size, face_pt, n, t1, t2, e1, e2, is_disc, m
         count += 1
     deepest = d0
     return count, deepest
+
+
+@njit(cache=True)
+def add_single_contact(cnt, dmax, depth0, n, xa, xb, tol, out_point, out_normal, out_depth,
+                       out_feature, start):
+    """Append the GJK/MPR contact (depth ``depth0``, normal ``n``, witness points ``xa``,
+    ``xb``, feature 0) to the ``cnt`` face contacts written from ``start`` unless their
+    deepest, ``dmax``, is within ``tol`` of it; with 4 already, it replaces the
+    shallowest. Returns the new count."""
+    if cnt > 0 and depth0 <= dmax + tol:
+        return cnt
+    row = start + cnt
+    if cnt == 4:
+        row = start
+        for i in range(1, 4):
+            if out_depth[start + i] < out_depth[row]:
+                row = start + i
+        cnt = 3
+    write_contact(out_point, out_normal, out_depth, out_feature, row, mid(xa, xb), n, depth0,
+                  np.int64(0))
+    return cnt + 1

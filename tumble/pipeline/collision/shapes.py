@@ -25,15 +25,9 @@ from numba import njit
 from ..._jit import noalloc
 
 from ...math.quat import quat_rotate, quat_rotate_inv
-
-PLANE = 0
-SPHERE = 1
-CAPSULE = 2
-BOX = 3
-CYLINDER = 4
-CONVEX = 5
-HEIGHTFIELD = 6
-NUM_GEOM_TYPES = 7
+# The codes live in model.types; the collision modules import them from here.
+from ...model.types import (BOX, CAPSULE, CONVEX, CYLINDER, HEIGHTFIELD,  # noqa: F401
+                            NUM_GEOM_TYPES, PLANE, SPHERE)
 
 #: Most contacts any pair routine writes.
 MAX_CONTACTS_PER_PAIR = 4

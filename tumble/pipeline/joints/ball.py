@@ -34,7 +34,7 @@ from numba import njit
 from ..._jit import noalloc
 
 from ...math.quat import quat_conj, quat_log, quat_mul, quat_rotate
-from .common import point_rows
+from .common import angle_about_x, point_rows
 
 
 @noalloc
@@ -60,12 +60,7 @@ def twist_terms(frame_a, frame_b):
     is taken out; e (3,) world, not unit, with ``tau' = e . (w_b - w_a)``; ok is False when
     the swing is within about 0.1 degree of a half turn, where the twist is undefined.
     """
-    rel = quat_mul(quat_conj(frame_a), frame_b)
-    tau = 2.0 * math.atan2(rel[0], rel[3])
-    if tau > math.pi:
-        tau -= 2.0 * math.pi
-    elif tau <= -math.pi:
-        tau += 2.0 * math.pi
+    tau = angle_about_x(frame_a, frame_b)
     xa = quat_rotate(frame_a, (1.0, 0.0, 0.0))
     xb = quat_rotate(frame_b, (1.0, 0.0, 0.0))
     den = 1.0 + xa[0] * xb[0] + xa[1] * xb[1] + xa[2] * xb[2]

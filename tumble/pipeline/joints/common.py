@@ -10,10 +10,12 @@ the row's velocity is ``J . (v_a, w_a, v_b, w_b)``. The solver finds an impulse 
 where ``rhs`` is the target velocity (ERP drift correction, motor speed) and ``cfm``
 the softness in velocity per impulse (ODE's CFM divided by the step).
 """
+import math
+
 from numba import njit
 
 from ..._jit import noalloc
-from ...math.quat import quat_mul, quat_rotate
+from ...math.quat import quat_conj, quat_mul, quat_rotate
 
 INF = 1e300
 
@@ -106,3 +108,16 @@ def point_rows(rows, r, a, b, anchor_a, anchor_b, r_a, r_b, erp_h, cfm):
         e = (1.0 if k == 0 else 0.0, 1.0 if k == 1 else 0.0, 1.0 if k == 2 else 0.0)
         c = anchor_b[k] - anchor_a[k]
         linear_row(rows, r + k, a, b, e, r_a, r_b, -erp_h * c, cfm, -INF, INF)
+
+
+@noalloc
+def angle_about_x(frame_a, frame_b):
+    """Angle (rad, in (-pi, pi]) of joint frame b about the x axis of joint frame a, any
+    rotation about the other axes left out: the hinge angle, the ball's twist."""
+    rel = quat_mul(quat_conj(frame_a), frame_b)
+    angle = 2.0 * math.atan2(rel[0], rel[3])
+    if angle > math.pi:
+        angle -= 2.0 * math.pi
+    elif angle <= -math.pi:
+        angle += 2.0 * math.pi
+    return angle

@@ -1,10 +1,7 @@
 """Hinge: anchors coincide and the child turns only about the joint axis (x of the joint frame)."""
-import math
-
-
 from ..._jit import noalloc
-from ...math.quat import quat_conj, quat_mul, quat_rotate
-from .common import INF, angular_row, point_rows
+from ...math.quat import quat_rotate
+from .common import INF, angle_about_x, angular_row, point_rows
 
 
 @noalloc
@@ -25,11 +22,6 @@ def core_rows(rows, r, a, b, anchor_a, anchor_b, r_a, r_b, frame_a, frame_b, erp
 @noalloc
 def dofs(frame_a, frame_b, anchor_a, anchor_b):
     """Axis (world) and hinge angle (rad, in (-pi, pi]) of the child about it."""
-    rel = quat_mul(quat_conj(frame_a), frame_b)
-    angle = 2.0 * math.atan2(rel[0], rel[3])
-    if angle > math.pi:
-        angle -= 2.0 * math.pi
-    elif angle <= -math.pi:
-        angle += 2.0 * math.pi
+    angle = angle_about_x(frame_a, frame_b)
     axis = quat_rotate(frame_a, (1.0, 0.0, 0.0))
     return (axis, axis, axis), (angle, 0.0, 0.0)

@@ -17,10 +17,10 @@ from numba import njit
 from ..._jit import noalloc
 
 from ...math.quat import quat_conj, quat_mul
+from ...model.types import BALL, FIXED, HINGE, ROWS_PER_DOF, SLIDER, UNIVERSAL
 from . import ball, fixed, hinge, slider, universal
 from .servo import pd_error, servo_active, servo_row_terms
 from .common import INF, angular_row, clear_row, joint_frames, linear_row
-from .types import BALL, FIXED, HINGE, ROWS_PER_DOF, SLIDER, UNIVERSAL
 
 
 @noalloc

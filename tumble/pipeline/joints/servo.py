@@ -11,7 +11,7 @@ from numba import njit
 from ..._jit import noalloc
 
 from ...math.quat import quat_conj, quat_log, quat_mul
-from .types import BALL, HINGE, SLIDER, UNIVERSAL
+from ...model.types import BALL, HINGE, SLIDER, UNIVERSAL
 
 # One world's joint drives, slices of the state arrays of the same names.
 JointDrive = namedtuple("JointDrive", [

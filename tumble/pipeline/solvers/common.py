@@ -14,6 +14,14 @@ from ...model.model import DYNAMIC
 Rows = namedtuple("Rows", ["body_a", "body_b", "J", "rhs", "cfm", "lo", "hi", "parent", "mu",
                            "group"])
 
+# The bodies the rows act on, as the solvers' kernels pass them along.
+Bodies = namedtuple("Bodies", [
+    "inv_mass",     # (nbody,) 1/kg, zero for bodies that cannot move
+    "inv_inertia",  # (nbody, 3, 3) world frame
+    "vel",          # (nbody, 3) m/s, updated in place
+    "angvel",       # (nbody, 3) rad/s world frame, updated in place
+])
+
 
 @njit(cache=True)
 def make_rows_nb(nrow):

@@ -12,11 +12,13 @@ set does not settle within its iteration cap, or a factorisation fails (redundan
 with zero CFM), the result is polished by projected Gauss-Seidel and the fallback is
 reported.
 """
+from collections import namedtuple
+
 import numpy as np
 from numba import njit
 
 from ..._jit import noalloc
-from .common import (active_rows, apply_impulse, apply_impulses, minv_jt, row_active,
+from .common import (Bodies, active_rows, apply_impulse, apply_impulses, minv_jt, row_active,
                      row_velocity)
 from .pgs import solve_pgs
 from .tree import cached_tree_plan, make_plan_cache, tree_factor, tree_solve
@@ -182,22 +184,45 @@ def solve_active_set_cached(rows, nrow, inv_mass, inv_inertia, vel, angvel, impu
         row_responses(rows, idx, n, inv_mass, inv_inertia, vel, angvel, dv, b)
     else:
         assemble(rows, idx, n, inv_mass, inv_inertia, vel, angvel, dv, A, b)
-    iters = _active_set(rows, idx, n, inv_mass, inv_inertia, vel, angvel, impulse, tolerance,
-                        tree, plan, A, dv, b, np.zeros(n, np.int64), np.zeros(n),
-                        np.empty(n), np.empty(n, np.int64), np.zeros((nd, nd)), np.zeros(n),
-                        np.zeros(n), np.zeros((nd, nd)), np.zeros((nbody, 6)),
-                        np.zeros((nbody, 6)))
+    work = ActiveSetWork(A, dv, b, np.zeros(n, np.int64), np.zeros(n), np.empty(n),
+                         np.empty(n, np.int64), np.zeros((nd, nd)), np.zeros(n), np.zeros(n),
+                         np.zeros((nd, nd)), np.zeros((nbody, 6)), np.zeros((nbody, 6)))
+    iters = _active_set(rows, idx, n, Bodies(inv_mass, inv_inertia, vel, angvel), impulse,
+                        tolerance, tree, plan, work)
     if iters > 0:
         return iters
     _polish(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, tolerance)
     return iters
 
 
+# The system and work arrays of ``_active_set`` for n active rows (nd = n for the dense
+# factorisation, 0 on the tree).
+ActiveSetWork = namedtuple("ActiveSetWork", [
+    "A",        # (nd, nd) J M^-1 J^T + CFM (dense only)
+    "dv",       # (n, 12) M^-1 J^T of each row
+    "b",        # (n,) rhs - J v
+    "state",    # (n,) int64 0 free, -1 at its lower bound, 1 at its upper; zero on entry
+    "p",        # (n,) the impulses; zero on entry
+    "cfm",      # (n,)
+    "free",     # (n,) int64 the free rows' positions
+    "sub",      # (nd, nd) the free rows' block of A
+    "rhs",      # (n,)
+    "x",        # (n,)
+    "work",     # (nd, nd) its Cholesky factor
+    "acc",      # (nbody, 6) the bodies' velocity change under the clamped rows' impulses
+    "fzero",    # (nbody, 6) zero: the tree solve's body right-hand side
+])
+
+
 @noalloc
-def _active_set(rows, idx, n, inv_mass, inv_inertia, vel, angvel, impulse, tolerance, tree,
-                plan, A, dv, b, state, p, cfm, free, sub, rhs, x, work, acc, fzero):
-    """The active-set iterations of ``solve_active_set`` on its work arrays; applies the
-    impulses. Returns the iteration count, negated when it did not converge."""
+def _active_set(rows, idx, n, bodies, impulse, tolerance, tree, plan, ws):
+    """The active-set iterations of ``solve_active_set`` on the rows ``idx[:n]`` with the
+    work arrays ``ws`` (``ActiveSetWork``); applies the impulses. Returns the iteration
+    count, negated when it did not converge."""
+    inv_mass, inv_inertia = bodies.inv_mass, bodies.inv_inertia
+    vel, angvel = bodies.vel, bodies.angvel
+    A, dv, b, state, p, cfm = ws.A, ws.dv, ws.b, ws.state, ws.p, ws.cfm
+    free, sub, rhs, x, work, acc = ws.free, ws.sub, ws.rhs, ws.x, ws.work, ws.acc
     nbody = vel.shape[0]
     for i in range(n):
         cfm[i] = rows.cfm[idx[i]]
@@ -220,7 +245,7 @@ def _active_set(rows, idx, n, inv_mass, inv_inertia, vel, angvel, impulse, toler
                 rhs[i] = b[i] - row_dot(rows, idx[i], acc) if state[i] == 0 else 0.0
             if not tree_factor(plan, rows, idx, cfm, inv_mass, inv_inertia, nbody):
                 break
-            tree_solve(plan, nbody, fzero, rhs, acc, x)
+            tree_solve(plan, nbody, ws.fzero, rhs, acc, x)
             for u in range(nf):
                 p[free[u]] = -x[free[u]]
         else:

@@ -64,6 +64,8 @@ setting: box stacks and random contact sets (including wedged bodies) without CF
 with CFM <= 1e-10 or >= 1e-4 of max|M|: <= 0.1 % failures; random contact sets at
 CFM 1e-8: 0.7 %. A reported LEMKE_SOLVED is always verified.
 """
+from collections import namedtuple
+
 import numpy as np
 from numba import njit
 
@@ -296,23 +298,40 @@ def _solve_final_basis(mt, qn, basis, n, zn, work, idx):
     return True
 
 
+# The normalised problem and the tableau of one call of ``lemke`` (n variables).
+LemkeWork = namedtuple("LemkeWork", [
+    "mt",       # (n, n) M^T / max|M|: row j is column j of the normalised M
+    "qn",       # (n,) q / max|q|
+    "bt",       # (n, n) B^-1 transposed
+    "x",        # (n,) basic values B^-1 qn
+    "basis",    # (n,) int64 basic variable of each row: w_j = j, z_j = n + j, z0 = 2n
+    "col",      # (n,) the entering column
+    "cand",     # (n,) int64 rows tied in the ratio test
+    "zn",       # (n,) the normalised solution
+    "work",     # (n, n + 1) the final direct solve
+])
+
+
 @noalloc
-def _try_guess(mt, qn, guess, n, basis, zn, work, idx, w):
+def _try_guess(lw, guess, n):
     """Solve the basis where the ``z`` marked in ``guess`` are basic (the others at zero)
-    into ``zn``; True if that solves the normalised LCP to ``WARM_TOL``."""
+    into ``lw.zn``; True if that solves the normalised LCP to ``WARM_TOL``."""
+    mt, qn, basis, zn = lw.mt, lw.qn, lw.basis, lw.zn
     for i in range(n):
         basis[i] = n + i if guess[i] else i
-    if not _solve_final_basis(mt, qn, basis, n, zn, work, idx):
+    if not _solve_final_basis(mt, qn, basis, n, zn, lw.work, lw.cand):
         return False
-    return _residual_normalised(mt, qn, zn, n, w) <= WARM_TOL
+    return _residual_normalised(mt, qn, zn, n, lw.x) <= WARM_TOL
 
 
 @noalloc
-def _path(mt, qn, r0, n, max_iter, pivot_tol, bt, x, basis, col, cand, zn, work):
-    """Follow Lemke's path for the normalised problem (``mt = Mn^T``, ``qn``) starting
-    with ``z0`` entering in row ``r0``; on success ``zn`` holds the verified normalised
-    solution. All arrays are scratch of the sizes allocated in ``lemke``.
+def _path(lw, r0, n, max_iter, pivot_tol):
+    """Follow Lemke's path for the normalised problem (``lw.mt = Mn^T``, ``lw.qn``)
+    starting with ``z0`` entering in row ``r0``; on success ``lw.zn`` holds the verified
+    normalised solution. The other arrays of ``lw`` are scratch.
     Returns (status, pivots)."""
+    mt, qn, bt, x, basis = lw.mt, lw.qn, lw.bt, lw.x, lw.basis
+    col, cand, zn, work = lw.col, lw.cand, lw.zn, lw.work
     for i in range(n):
         for k in range(n):
             bt[i, k] = 0.0
@@ -436,25 +455,17 @@ def _lemke(M, q, max_iter, pivot_tol, z_out, guess):
     qn = np.empty(n)                      # q / max|q|
     for i in range(n):
         qn[i] = q[i] / scale_q
-    bt = np.empty((n, n))
-    x = np.empty(n)
-    basis = np.empty(n, np.int64)
-    col = np.empty(n)
-    cand = np.empty(n, np.int64)
-    zn = np.empty(n)
-    work = np.empty((n, n + 1))           # for the final direct solve
-
-    if guess.shape[0] == n and _try_guess(mt, qn, guess, n, basis, zn, work, cand, x):
+    lw = LemkeWork(mt, qn, np.empty((n, n)), np.empty(n), np.empty(n, np.int64), np.empty(n),
+                   np.empty(n, np.int64), np.empty(n), np.empty((n, n + 1)))
+    if guess.shape[0] == n and _try_guess(lw, guess, n):
         status, pivots = LEMKE_SOLVED, 0
     else:
-        status, pivots = _path(mt, qn, r0, n, max_iter, pivot_tol, bt, x, basis, col, cand,
-                               zn, work)
+        status, pivots = _path(lw, r0, n, max_iter, pivot_tol)
     if (status == LEMKE_RAY or status == LEMKE_INACCURATE) and pivot_tol < RETRY_PIVOT_TOL \
             and pivots < max_iter:
         # a nearly singular basis (tiny regularisation of redundant rows) can derail the
         # path; treating such pivots as zero usually keeps it on a solvable track
-        status2, pivots2 = _path(mt, qn, r0, n, max_iter - pivots, RETRY_PIVOT_TOL, bt,
-                                 x, basis, col, cand, zn, work)
+        status2, pivots2 = _path(lw, r0, n, max_iter - pivots, RETRY_PIVOT_TOL)
         pivots += pivots2
         if status2 == LEMKE_SOLVED:
             status = status2
@@ -462,7 +473,7 @@ def _lemke(M, q, max_iter, pivot_tol, z_out, guess):
         return status, pivots
     back = scale_q / scale_m              # z = (max|q| / max|M|) * z_normalised
     for j in range(n):
-        v = zn[j] * back
+        v = lw.zn[j] * back
         if not np.isfinite(v):            # only if z overflows float64
             for k in range(n):
                 z_out[k] = 0.0

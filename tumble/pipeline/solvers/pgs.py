@@ -8,7 +8,7 @@ import numpy as np
 from numba import njit
 
 from ..._jit import noalloc
-from .common import apply_impulse, minv_jt, row_active, row_velocity
+from .common import Bodies, apply_impulse, minv_jt, row_active, row_velocity
 
 
 @njit(cache=True)
@@ -21,14 +21,15 @@ def solve_pgs(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, iteration
     """
     dv = np.zeros((nrow, 12))
     diag = np.zeros(nrow)
-    return _pgs(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, iterations, tolerance,
-                warm_start, dv, diag)
+    return _pgs(rows, nrow, Bodies(inv_mass, inv_inertia, vel, angvel), impulse, iterations,
+                tolerance, warm_start, dv, diag)
 
 
 @noalloc
-def _pgs(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, iterations, tolerance,
-         warm_start, dv, diag):
+def _pgs(rows, nrow, bodies, impulse, iterations, tolerance, warm_start, dv, diag):
     """``solve_pgs`` with its work arrays: dv (nrow, 12), diag (nrow,) zeroed."""
+    inv_mass, inv_inertia = bodies.inv_mass, bodies.inv_inertia
+    vel, angvel = bodies.vel, bodies.angvel
     for r in range(nrow):
         if not row_active(rows, r):
             impulse[r] = 0.0

@@ -525,8 +525,18 @@ def tree_unload(plan, nbody, u_out, y_out):
         y_out[i] = z[plan.row_z[i]] if plan.row_z[i] >= 0 else 0.0
 
 
+# Columns ``h_t = L^-1 f_t`` of rows outside the tree (``tree_row_columns``), for up to k
+# rows; each is kept only on the nodes of its path.
+RowColumns = namedtuple("RowColumns", [
+    "H",        # (k, 6 nbody + rows) the columns, set only on each column's nodes
+    "member",   # (k, nbody + rows) bool the nodes of each column
+    "path",     # (k, nbody + rows) int64 those nodes, children first
+    "plen",     # (k,) int64 their number
+])
+
+
 @noalloc
-def tree_row_columns(plan, nbody, rows, rsel, ns, H, member, path, plen):
+def tree_row_columns(plan, nbody, rows, rsel, ns, cols):
     """``h_t = L^-1 f_t`` for the outside rows ``rsel[:ns]``, ``f_t`` the row's Jacobian
     on its bodies in the tree (force-like): the column ``tree_forward`` would make of a
     unit impulse on the row. ``h_t`` is nonzero only on the paths from those bodies to
@@ -536,11 +546,10 @@ def tree_row_columns(plan, nbody, rows, rsel, ns, H, member, path, plen):
     velocity ``J_t u`` of the solution of ``[0; g]`` is that sum against the forward
     substituted ``z``, and impulses ``p`` on the rows add ``sum_t p_t h_t`` to it
     (``tree_add_columns``) before ``tree_backward``.
-    H (ns, 6 nbody + rows) out, written (and read) only on each column's nodes;
-    member (ns, nbody + rows) bool False on entry;
-    path (ns, nbody + rows) int64 out: the nodes of each column, children first;
-    plen (ns,) int64 out: their number."""
+    cols : ``RowColumns`` with room for ``ns`` rows, ``member`` False on entry; the
+    others are written here."""
     dim, zoff, opos = plan.dim, plan.z_off, plan.opos
+    H, member, path, plen = cols.H, cols.member, cols.path, cols.plen
     for t in range(ns):
         r = rsel[t]
         n = np.int64(0)
@@ -570,11 +579,12 @@ def tree_row_columns(plan, nbody, rows, rsel, ns, H, member, path, plen):
 
 
 @noalloc
-def tree_column_dot(plan, nbody, H, path, plen, t, x, xm, restrict):
-    """``sum_u s_u h_t,u . x_u`` over the nodes of column ``t``: with ``restrict``, only
-    those in ``xm`` (the nodes of another column ``x``, a row of ``member``); without,
-    ``x`` covers every node (the forward substituted ``z``)."""
+def tree_column_dot(plan, nbody, cols, t, x, xm, restrict):
+    """``sum_u s_u h_t,u . x_u`` over the nodes of column ``t`` of ``cols``: with
+    ``restrict``, only those in ``xm`` (the nodes of another column ``x``, a row of
+    ``member``); without, ``x`` covers every node (the forward substituted ``z``)."""
     dim, zoff = plan.dim, plan.z_off
+    H, path, plen = cols.H, cols.path, cols.plen
     acc = 0.0
     for q in range(plen[t]):
         u = path[t, q]
@@ -589,9 +599,10 @@ def tree_column_dot(plan, nbody, H, path, plen, t, x, xm, restrict):
 
 
 @noalloc
-def tree_add_columns(plan, H, path, plen, ns, p):
-    """``z += sum_t p_t h_t`` over the columns' nodes (p (ns,))."""
+def tree_add_columns(plan, cols, ns, p):
+    """``z += sum_t p_t h_t`` over the nodes of the columns ``cols`` (p (ns,))."""
     z, dim, zoff = plan.z, plan.dim, plan.z_off
+    H, path, plen = cols.H, cols.path, cols.plen
     for t in range(ns):
         if p[t] == 0.0:
             continue

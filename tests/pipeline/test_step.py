@@ -1,0 +1,108 @@
+"""The step as a whole: its stage timer, and a failed call undone exactly."""
+import numpy as np
+import pytest
+
+import tumble
+from tumble.pipeline.arrays import STAGES
+
+
+def pendulum_and_box(**options):
+    """A hinged pendulum with a limit and a box landing on the ground: joints, limits,
+    contacts and projection all run."""
+    b = tumble.ModelBuilder()
+    b.add_geom(None, "plane")
+    arm = b.add_body("arm", pos=(0.25, 0, 1.0), mass=1.0, inertia=(0.01, 0.02, 0.02))
+    b.add_joint("pivot", "hinge", None, arm, anchor=(0, 0, 1.0), axis=(0, 1, 0),
+                limit=(-0.6, 0.6))
+    box = b.add_body("box", pos=(1.0, 0, 0.12), mass=1.0, inertia=(0.01, 0.01, 0.01))
+    b.add_geom(box, "box", size=(0.1, 0.1, 0.1))
+    return tumble.World(b.build(), **options)
+
+
+@pytest.mark.parametrize("contact", ["lcp", "pgs", "penalty"])
+def test_profiling_times_the_stages_and_changes_no_bit(contact):
+    plain, timed = pendulum_and_box(contact=contact), pendulum_and_box(contact=contact,
+                                                                       profile=True)
+    for n in (1, 40, 49):
+        plain.step(n)
+        timed.step(n)
+    for a, b in zip(plain.state_arrays, timed.state_arrays):
+        if a.dtype.kind == "f":
+            np.testing.assert_array_equal(a, b)
+    times = timed.stage_times()
+    assert list(times) == list(STAGES)
+    assert all(t >= 0.0 for t in times.values()) and times["collide"] > 0.0
+    assert times["solve"] > 0.0 and times["integrate_velocities"] > 0.0
+    assert sum(plain.stage_times().values()) == 0.0          # off: no clock read
+    timed.stage_times(reset=True)
+    assert sum(timed.stage_times().values()) == 0.0
+
+
+def test_a_diverging_call_is_undone_array_for_array():
+    """Every state and contact array is as it came in after a call that diverged midway,
+    the solver's warm start, the joint reactions and the counters included."""
+    w = pendulum_and_box(contact="lcp", divergence_limit=50.0)
+    w.step(30)
+    before = [a.copy() for a in w.state_arrays] + [a.copy() for a in w.contact_arrays]
+    time = w.time
+    w.apply_force("box", (0.0, 0.0, 5e4))                    # 50 m/s within a step or two
+    with pytest.raises(tumble.SimulationError, match="body 'box'"):
+        w.step(20)
+    after = [a for a in w.state_arrays] + [a for a in w.contact_arrays]
+    for a, b in zip(before, after):
+        np.testing.assert_array_equal(a, b)
+    assert w.time == time
+
+
+def ragdoll_world(contact):
+    rd = tumble.games105_ragdoll()
+    return rd.make_world(dt=1 / 60, contact=contact)
+
+
+def snapshot(w):
+    st = w.get_state()
+    arrays = [a.copy() for a in w.state_arrays] + [a.copy() for a in w.control_arrays] + \
+        [a.copy() for a in w.contact_arrays]
+    return st, arrays
+
+
+@pytest.mark.parametrize("contact, n", [("lcp", 1), ("pgs", 50), ("penalty", 7)])
+def test_a_failed_call_leaves_every_array_and_the_twin_agrees(contact, n):
+    """A torque no joint can hold, on the course ragdoll: the call fails, every state,
+    control and contact array is as before (the counters and the servo targets too), and
+    the world then steps on exactly as its twin that never tried."""
+    w, twin = ragdoll_world(contact), ragdoll_world(contact)
+    for x in (w, twin):
+        x.step(20)
+    before_state, before = snapshot(w)
+    w.apply_joint_torque("lKnee", 1e12)
+    with pytest.raises(tumble.SimulationError):
+        w.step(n)
+    w.clear_forces()
+    w.control_arrays.joint_applied[:] = 0.0
+    after_state, after = snapshot(w)
+    for a, b in zip(before, after):
+        np.testing.assert_array_equal(a, b)
+    for field in ("time", "body_pos", "body_quat", "joint_force", "joint_torque", "pd_target_quat"):
+        np.testing.assert_array_equal(getattr(before_state, field), getattr(after_state, field))
+    w.step(30)
+    twin.step(30)
+    for a, b in zip(w.state_arrays, twin.state_arrays):
+        np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("contact", ["lcp", "pgs"])
+def test_chunking_does_not_change_a_bit(contact):
+    """step(60), 60 x step(1) and 4 x step(15) end in the same bits (quaternions already of
+    unit length are not divided again at each call)."""
+    worlds = [ragdoll_world(contact) for _ in range(3)]
+    worlds[0].step(60)
+    for _ in range(60):
+        worlds[1].step(1)
+    for _ in range(4):
+        worlds[2].step(15)
+    for other in worlds[1:]:
+        for field in ("body_pos", "body_quat", "body_vel", "body_angvel", "row_impulse",
+                      "joint_q"):
+            np.testing.assert_array_equal(getattr(worlds[0].state_arrays, field),
+                                          getattr(other.state_arrays, field), err_msg=field)

@@ -1,0 +1,62 @@
+"""Solve: impulses that satisfy the joint, servo and contact rows together.
+
+The options pick the method: the direct solver (exact, dense or over the joint tree) when
+there are no contacts or they are penalty springs; the mixed LCP by Lemke for exact
+contacts, with projected Gauss-Seidel standing in if Lemke fails; PGS throughout for
+``contact='pgs'`` (or ``solver='pgs'`` without contacts). ``solve_fast`` takes the most
+common case (a character on exact contacts) without allocating.
+"""
+import numpy as np
+from numba import njit
+
+from .._jit import noalloc
+from .arrays import CONTACT_LCP, CONTACT_PENALTY, CONTACT_PGS, SOLVER_PGS
+from .solvers.direct import solve_direct
+from .solvers.mlcp import FAST_SOLVED, guess_on_tree_fast, solve_mlcp
+from .solvers.pgs import solve_pgs
+from .solvers.tree import make_plan_cache, plan_capacity
+
+
+@njit(cache=True)
+def solve_rows(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o, caches):
+    """Solve rows ``[0, nrow)`` (``ncon`` contacts among them) with the method the options
+    ``o`` pick, updating ``vel``, ``angvel`` (nbody, 3) and ``imp`` (nrow,) in place.
+
+    caches : (direct, mlcp) tree-plan caches (``make_solver_caches``).
+    Returns 1 when the exact (Lemke) solve failed and PGS stood in, else 0."""
+    if o.contact == CONTACT_PGS or (o.solver == SOLVER_PGS and ncon == 0):
+        solve_pgs(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp, o.iterations,
+                  o.tolerance, o.warm_start)
+        return 0
+    if ncon == 0 or o.contact == CONTACT_PENALTY:
+        solve_direct(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp, o.tolerance,
+                     caches[0])
+        return 0
+    # exact: the mixed LCP by Lemke; if Lemke reports failure, PGS from the warm start
+    status = solve_mlcp(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp, np.int64(0),
+                        caches[1])
+    if status != 0:
+        solve_pgs(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp, o.iterations,
+                  o.tolerance, o.warm_start)
+        return 1
+    return 0
+
+
+@noalloc
+def solve_fast(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o, caches, fast):
+    """``solve_rows``'s most common case, a character standing or walking on an exact (LCP)
+    contact model, without allocating or reference counting (``mlcp.guess_on_tree_fast``).
+    True when it solved the rows; False leaves everything to ``solve_rows``."""
+    if o.contact != CONTACT_LCP or ncon == 0:
+        return False
+    return guess_on_tree_fast(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp,
+                              caches[1], fast) == FAST_SOLVED
+
+
+@njit(cache=True)
+def make_solver_caches(m, servoed, nbody):
+    """Tree-plan caches of the direct solver and of the mixed LCP for one ``step`` call:
+    the joints' (and body servos') rows keep their plan from step to step."""
+    nrow, nfac = plan_capacity(m.joint_parent, m.joint_child, m.joint_row_count, servoed,
+                               m.body_inv_mass, nbody)
+    return (make_plan_cache(nrow, nbody, nfac), make_plan_cache(nrow, nbody, nfac))

@@ -1,0 +1,92 @@
+"""Scratch memory of a step call: what the stages write between them, made once and kept
+by ``World`` between calls (``make_step_work``) while it still fits (``work_fits``)."""
+from collections import namedtuple
+
+import numpy as np
+from numba import njit
+
+from .._jit import noalloc
+from .actuators import servo_on, servoed_bodies
+from .arrays import CONTACT_PENALTY
+from .collide import listed_pairs, listed_primitives
+from .contacts.arrays import make_contacts_nb
+from .contacts.pairs import rows_per_contact
+from .solve import make_solver_caches
+from .solvers.common import make_rows_nb
+from .solvers.mlcp import make_fast_scratch
+from .stabilize import projection_setup
+
+StepWork = namedtuple("StepWork", [
+    "contact_capacity",   # int: contacts per world the contact arrays hold
+    "row_capacity",       # int: rows laid out (joints, 6 per servoed body, contacts)
+    "projecting",         # bool: joints are projected after the position update
+    "rows_per_contact",   # int: 3, or 6 with spin friction
+    "listed_primitive",   # bool: the listed pairs are all primitives (collide_listed)
+    "force",        # (nbody, 3) accumulated force, N
+    "torque",       # (nbody, 3) accumulated torque, N m
+    "inv_inertia",  # (nbody, 3, 3) world inverse inertia
+    "rows",         # Rows for joints, body servos and contacts
+    "imp",          # (rows,) impulses handed to the solvers
+    "gpos", "gquat", "aabb_lo", "aabb_hi",   # (ngeom, 3|4) geom poses and boxes
+    "prev",         # ContactArrays: last step's contacts (warm start)
+    "vel_pred", "angvel_pred",               # (nbody, 3) stable PD's prediction
+    "servoed",      # (ns,) int64 bodies with a body servo (6 rows each after the joints')
+    "projection",   # stabilize.projection_setup
+    "caches",       # (direct, mlcp) tree-plan caches (solve.make_solver_caches)
+    "fast",         # mlcp.FastScratch: the mixed LCP's common case without allocating
+    "listed",       # (K, 2) int32 the geom pairs that may touch (collide.listed_pairs)
+])
+
+
+@njit(cache=True)
+def make_step_work(m, s, c, con, o):
+    """Scratch memory for stepping the worlds of state ``s`` with controls ``c``, contacts
+    ``con`` and options ``o``."""
+    nb = s.body_pos.shape[1]
+    ng = m.geom_type.shape[0]
+    njrow = s.row_impulse.shape[1]
+    cap = con.depth.shape[1]
+    servoed = servoed_bodies(c.body_servo)
+    nper = rows_per_contact(m)
+    ncap = _row_capacity(njrow, servoed.shape[0], nper, cap, o)
+    rows = make_rows_nb(ncap)
+    project = njrow > 0 and o.projection > 0
+    listed = listed_pairs(m, nb)
+    caches = make_solver_caches(m, servoed, nb)
+    return StepWork(np.int64(cap), np.int64(ncap), project, np.int64(nper),
+                    listed_primitives(m, listed), np.empty((nb, 3)), np.empty((nb, 3)),
+                    np.zeros((nb, 3, 3)), rows, np.zeros(ncap), np.zeros((ng, 3)),
+                    np.zeros((ng, 4)), np.zeros((ng, 3)), np.zeros((ng, 3)),
+                    make_contacts_nb(cap), np.empty((nb, 3)), np.empty((nb, 3)), servoed,
+                    projection_setup(m, rows, nb, project), caches,
+                    make_fast_scratch(ncap, nb, caches[1]), listed)
+
+
+@njit(cache=True, inline="always")
+def _row_capacity(njrow, nservoed, nper, cap, o):
+    """Rows a step lays out: the joints', six per servoed body, then ``nper`` for each of
+    ``cap`` contacts unless contacts are penalty springs."""
+    return njrow + 6 * nservoed + (nper * cap if o.contact != CONTACT_PENALTY else 0)
+
+
+@noalloc
+def work_fits(work, m, s, c, con, o):
+    """Whether ``work`` (make_step_work) still fits the state, controls, contacts and
+    options."""
+    njrow = s.row_impulse.shape[1]
+    cap = con.depth.shape[1]
+    # the bodies with a servo, in order, must be those the rows were laid out for
+    k = 0
+    ns = work.servoed.shape[0]
+    for b in range(c.body_servo.shape[1]):
+        if servo_on(c.body_servo, b):
+            if k >= ns or work.servoed[k] != b:
+                return False
+            k += 1
+    if k != ns:
+        return False
+    ncap = _row_capacity(njrow, ns, work.rows_per_contact, cap, o)
+    project = njrow > 0 and o.projection > 0
+    return (work.contact_capacity == cap and work.row_capacity == ncap
+            and work.projecting == project and work.rows.rhs.shape[0] == ncap
+            and work.gpos.shape[0] == m.geom_type.shape[0])
