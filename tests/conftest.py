@@ -45,6 +45,9 @@ STEP_FREE = [
     "tests/io/test_fuzz_urdf.py",
     "tests/io/test_fuzz_mesh.py",
     "tests/test_hardening.py",
+    "tests/test_layers.py",
+    "tests/test_jit.py",
+    "tests/world/test_options.py",
 ]
 
 

@@ -26,9 +26,17 @@ from .character import (HandOfGod, MotionTracker, PDController, Pose, Ragdoll,
                         SimbiconController, Skeleton, StaticBalance, build_ragdoll,
                         games105_ragdoll, get_pose, joint_targets, load_character_model,
                         load_gait, ragdoll_from_motion, run_walk, set_pose)
-from .viewer.recorder import Recorder, Recording
 
 __version__ = "0.1.0"
+
+
+def __getattr__(name):
+    # The recorder sits in the viewer layer, above World: it is imported when first asked
+    # for, so that ``import tumble`` loads no viewer module.
+    if name in ("Recorder", "Recording"):
+        from .viewer import recorder
+        return getattr(recorder, name)
+    raise AttributeError(f"module 'tumble' has no attribute {name!r}")
 
 del invalidate_stale_kernels
 

@@ -90,7 +90,7 @@ def step_checked(m, s, c, con, pairs, n, o, ball, work):
     """
     if not work_fits(work, m, s, c, con, o):
         return CALL_NEW_WORK, 0, -1, -1, -1, np.int64(0)
-    saved = copy_arrays(s), copy_arrays(c), copy_arrays(con)
+    saved = _save(s, c, con)
     stage, code, w, i = _prepare(m, s, c, ball)
     if stage != CALL_STEPPED:
         return stage, code, w, i, -1, np.int64(0)
@@ -103,7 +103,7 @@ def step_checked(m, s, c, con, pairs, n, o, ball, work):
 def step_checked_parallel(m, s, c, con, pairs, n, o, ball):
     """``step_checked`` with the worlds spread over Numba's threads (each run of worlds
     makes its own scratch memory, so there is no ``work`` and no CALL_NEW_WORK)."""
-    saved = copy_arrays(s), copy_arrays(c), copy_arrays(con)
+    saved = _save(s, c, con)
     stage, code, w, i = _prepare(m, s, c, ball)
     if stage != CALL_STEPPED:
         return stage, code, w, i, -1, np.int64(0)
@@ -113,16 +113,27 @@ def step_checked_parallel(m, s, c, con, pairs, n, o, ball):
 
 
 @njit(cache=True, inline="always")
+def _save(s, c, con):
+    """Copies of what a call may change: the state, the contacts, and the four control
+    arrays the preparation writes (target quaternions normalised, position actuators'
+    targets); the step itself writes no control."""
+    return (copy_arrays(s), copy_arrays(con), c.pd_target_quat.copy(),
+            c.body_target_quat.copy(), c.pd_target_q.copy(), c.pd_target_qd.copy())
+
+
+@njit(cache=True, inline="always")
 def _finish(s, c, con, saved, status):
     """After the step: the applied loads cleared if it stepped, else everything restored
-    from ``saved`` (copies of the state, controls and contacts as the call found them,
-    before the checks normalised anything)."""
+    from ``saved`` (``_save``, taken before the checks normalised anything)."""
     if status == STEP_OK:
         clear_applied(c)
     else:
         assign_arrays(s, saved[0])
-        assign_arrays(c, saved[1])
-        assign_arrays(con, saved[2])
+        assign_arrays(con, saved[1])
+        c.pd_target_quat[:] = saved[2]
+        c.body_target_quat[:] = saved[3]
+        c.pd_target_q[:] = saved[4]
+        c.pd_target_qd[:] = saved[5]
 
 
 @njit(cache=True)

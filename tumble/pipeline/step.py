@@ -1,6 +1,6 @@
 """The step: every stage of the pipeline, in order, ``n`` times, in one compiled call.
 
-``substep`` advances one world by one step of ``dt``; its stages, in the order they run:
+Each step of a world runs these stages, in this order (``step_worlds``):
 
     collide.py            contacts: broad phase, filtering, narrow phase
     forces.py             gravity + applied forces and torques
@@ -16,8 +16,8 @@
     stabilize.py          joints projected back together (positions only)
     integrate.py          divergence check
 
-``step_worlds`` runs ``substep`` ``n`` times for each world of a batch, then reads the
-joint coordinates (joints/rows.py). State arrays carry a leading world axis (nworld,
+``step_worlds`` runs them ``n`` times for each world of a batch, then reads the joint
+coordinates (joints/rows.py). State arrays carry a leading world axis (nworld,
 nbody, ...); each world is stepped on its own views (``_jit.world_of``). If any world
 diverges (or a buffer is too small) the failing world, step and body are returned, and
 ``call.py`` -- the checks of the inputs and the calls from Python -- undoes the whole call,
@@ -29,7 +29,7 @@ With ``StepOptions.profile`` the step adds the time of each stage (``arrays.STAG
 import numpy as np
 from numba import njit
 
-from .._jit import ticks, world_of
+from .._jit import noalloc, ticks, world_of
 from .actuators import (PD_EXPLICIT, PD_IMPLICIT, PD_STABLE, actuator_forces, body_servo_rows,
                         stable_servo_forces)
 from .arrays import (CONTACT_PENALTY, STAGE_CHECK, STAGE_COLLIDE, STAGE_COORDINATES,
@@ -66,51 +66,52 @@ def _lap(o, stage_ticks, stage, t0):
     return t1
 
 
-@njit(cache=True, inline="always")
-def find_contacts(m, s, con, pairs, o, work):
-    """Collide: the contacts of world ``s`` (one world's views) into ``con``, the last
-    step's kept in ``work.prev`` for warm starts. Returns (collide code, contacts)."""
-    nprev = s.contact_count[0]
-    prev = work.prev
-    for i in range(nprev):
+# The stages below take the namedtuples whole: they allocate nothing, so a call costs no
+# reference counting (``_jit.noalloc``). The three stages that may allocate (the general
+# broad phase, stable PD's solve, the exact solve) are called from ``step_worlds`` with the
+# arrays it unpacked once per world, since an inlined helper taking the namedtuples would
+# count a reference to each of their ~120 arrays at every step.
+
+@noalloc
+def keep_previous_contacts(s, con, prev):
+    """Collide, first part: last step's contacts of world ``s`` (geoms, feature ids,
+    impulses) copied to ``prev``, which the narrow phase matches for warm starts."""
+    for i in range(s.contact_count[0]):
         prev.geom[i, 0], prev.geom[i, 1] = con.geom[i, 0], con.geom[i, 1]
         prev.feature[i] = con.feature[i]
         for q in range(con.impulse.shape[1]):
             prev.impulse[i, q] = con.impulse[i, q]
-    if work.listed_primitive:
-        return collide_listed(m, s.body_pos, s.body_quat, work.gpos, work.gquat, work.aabb_lo,
-                              work.aabb_hi, pairs, con, nprev, prev, o.contact_margin,
-                              work.listed)
-    return collide_world(m, s.body_pos, s.body_quat, work.gpos, work.gquat, work.aabb_lo,
-                         work.aabb_hi, pairs, con, nprev, prev, o.contact_margin, o.broadphase,
-                         work.listed)
 
 
-@njit(cache=True, inline="always")
-def add_forces(m, s, c, con, ncon, drive, o, work, explicit_drives, servoed_joints):
-    """Forces: gravity and applied loads, then explicit actuation (``explicit_drives``),
-    stable PD (``servoed_joints`` under ``pd='stable'``) and penalty contacts, summed into
-    ``work.force`` and ``work.torque``."""
-    pos, quat, vel, angvel = s.body_pos, s.body_quat, s.body_vel, s.body_angvel
+@noalloc
+def find_listed_contacts(m, s, con, pairs, o, work):
+    """Collide, for a model whose geom pairs that may touch are few and all primitives
+    (``work.listed_primitive``): their boxes tested, then the narrow phase."""
+    return collide_listed(m, s.body_pos, s.body_quat, work.gpos, work.gquat, work.aabb_lo,
+                          work.aabb_hi, pairs, con, s.contact_count[0], work.prev,
+                          o.contact_margin, work.listed)
+
+
+@noalloc
+def add_forces(m, s, c, con, ncon, drive, o, work, explicit_drives):
+    """Forces: gravity and applied loads, explicit actuation (``explicit_drives``) and
+    penalty contacts, summed into ``work.force`` and ``work.torque``."""
     force, torque = work.force, work.torque
     accumulate_forces(m, c.applied_force, c.applied_torque, force, torque)
     if explicit_drives:
-        actuator_forces(m, pos, quat, vel, angvel, drive, c.ctrl, o.pd_mode, force, torque)
-    if servoed_joints and o.pd_mode == PD_STABLE:
-        world_inverse_inertia(m, quat, work.inv_inertia)
-        stable_servo_forces(m, pos, quat, vel, angvel, drive, o.dt, o.erp, o.cfm,
-                            o.gyroscopic, o.tolerance, work.rows, work.imp, work.vel_pred,
-                            work.angvel_pred, work.inv_inertia, force, torque,
-                            work.caches[0])
+        actuator_forces(m, s.body_pos, s.body_quat, s.body_vel, s.body_angvel, drive, c.ctrl,
+                        o.pd_mode, force, torque)
     if o.contact == CONTACT_PENALTY and ncon > 0:
-        penalty_forces(m, pos, quat, vel, angvel, con, ncon, o.penalty_k, o.penalty_c,
-                       o.v_slip, o.dt, work.rows_per_contact == ROWS_SPIN, force, torque)
+        penalty_forces(m, s.body_pos, s.body_quat, s.body_vel, s.body_angvel, con, ncon,
+                       o.penalty_k, o.penalty_c, o.v_slip, o.dt,
+                       work.rows_per_contact == ROWS_SPIN, force, torque)
 
 
-@njit(cache=True, inline="always")
+@noalloc
 def build_rows(m, s, c, con, ncon, nrow, drive, o, work):
     """Rows: the joints' (warm-started from last step's impulses), six per servoed body,
-    then the contacts', laid out in that order in ``work.rows`` and ``work.imp``."""
+    then the contacts', laid out in that order in ``work.rows`` and ``work.imp``; and the
+    world inverse inertia the solvers take."""
     njrow = s.row_impulse.shape[0]
     nfix = njrow + 6 * work.servoed.shape[0]
     pos, quat, vel, angvel = s.body_pos, s.body_quat, s.body_vel, s.body_angvel
@@ -118,80 +119,35 @@ def build_rows(m, s, c, con, ncon, nrow, drive, o, work):
     if njrow > 0:
         build_joint_rows(m, pos, quat, vel, angvel, drive, o.dt, o.erp, o.cfm, rows,
                          o.pd_mode == PD_IMPLICIT)
-        imp[:njrow] = s.row_impulse
+        for r in range(njrow):
+            imp[r] = s.row_impulse[r]
     if nfix > njrow:
         body_servo_rows(pos, quat, work.servoed, c.body_servo, c.body_target_pos,
                         c.body_target_quat, c.body_target_vel, c.body_target_angvel, o.dt,
                         rows, njrow)
-        imp[njrow:nfix] = 0.0
+        for r in range(njrow, nfix):
+            imp[r] = 0.0
     if nrow > nfix:
         build_contact_rows(m, pos, vel, angvel, con, ncon, nfix, work.rows_per_contact, o.dt,
                            o.contact_erp, o.contact_cfm, o.slop, o.bounce_threshold, rows, imp)
+    world_inverse_inertia(m, quat, work.inv_inertia)
 
 
-@njit(cache=True, inline="always")
-def solve(m, s, con, ncon, nrow, o, work, last):
-    """Solve: the rows' impulses and the constrained velocities; the joints' impulses kept
-    for the next step's warm start, the contacts' stored with them, and on the ``last``
-    step of the call each joint's reaction on its child."""
+@noalloc
+def keep_impulses(m, s, con, ncon, nrow, o, work, last):
+    """Solve, last part: the joints' impulses kept for the next step's warm start, the
+    contacts' stored with them, and on the ``last`` step of the call each joint's
+    reaction on its child."""
     njrow = s.row_impulse.shape[0]
     nfix = njrow + 6 * work.servoed.shape[0]
-    vel, angvel = s.body_vel, s.body_angvel
-    inv_inertia, rows, imp = work.inv_inertia, work.rows, work.imp
-    world_inverse_inertia(m, s.body_quat, inv_inertia)
-    if not solve_fast(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o, work.caches,
-                      work.fast):
-        s.lcp_fallbacks[0] += solve_rows(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp,
-                                         o, work.caches)
     if njrow > 0:
-        s.row_impulse[:] = imp[:njrow]
+        for r in range(njrow):
+            s.row_impulse[r] = work.imp[r]
         if last:            # what users read is the last step's: none before it
-            joint_reactions(m, s.body_pos, s.body_quat, rows, s.row_impulse, o.dt,
+            joint_reactions(m, s.body_pos, s.body_quat, work.rows, s.row_impulse, o.dt,
                             s.joint_force, s.joint_torque)
     if nrow > nfix:
-        store_contact_impulses(con, ncon, nfix, work.rows_per_contact, imp)
-
-
-@njit(cache=True, inline="always")
-def substep(m, s, c, con, pairs, drive, o, work, explicit_drives, servoed_joints, last):
-    """One step of ``dt`` for one world: ``s``, ``c`` and ``con`` are that world's views
-    of the state, controls and contacts, ``drive`` its ``JointDrive``.
-
-    Returns (status, body, needed): STEP_OK; STEP_DIVERGED with the first body whose state
-    is non-finite or runs away; STEP_MORE_PAIRS / STEP_MORE_CONTACTS with the buffer size
-    needed (the world is then mid-step: the caller restores it)."""
-    t = _start(o)
-    ncon = np.int64(0)
-    if m.geom_type.shape[0] > 1:
-        code, ncon = find_contacts(m, s, con, pairs, o, work)
-        if code != COLLIDE_OK:
-            return (STEP_MORE_PAIRS if code == COLLIDE_PAIRS_FULL else STEP_MORE_CONTACTS), \
-                -1, ncon
-        s.contact_count[0] = ncon
-    t = _lap(o, s.stage_ticks, STAGE_COLLIDE, t)
-    add_forces(m, s, c, con, ncon, drive, o, work, explicit_drives, servoed_joints)
-    t = _lap(o, s.stage_ticks, STAGE_FORCES, t)
-    integrate_velocities(m, s.body_quat, s.body_vel, s.body_angvel, work.force, work.torque,
-                         o.dt, o.gyroscopic)
-    t = _lap(o, s.stage_ticks, STAGE_INTEGRATE_VELOCITIES, t)
-    nrow = s.row_impulse.shape[0] + 6 * work.servoed.shape[0] + (
-        work.rows_per_contact * ncon if o.contact != CONTACT_PENALTY else 0)
-    if nrow > 0:
-        build_rows(m, s, c, con, ncon, nrow, drive, o, work)
-        t = _lap(o, s.stage_ticks, STAGE_ROWS, t)
-        solve(m, s, con, ncon, nrow, o, work, last)
-        t = _lap(o, s.stage_ticks, STAGE_SOLVE, t)
-    integrate_positions(m, s.body_pos, s.body_quat, s.body_vel, s.body_angvel, o.dt,
-                        o.quat_integration)
-    t = _lap(o, s.stage_ticks, STAGE_INTEGRATE_POSITIONS, t)
-    if s.row_impulse.shape[0] > 0 and o.projection > 0:
-        project_joints(m, s.body_pos, s.body_quat, work.rows, work.inv_inertia, o.projection,
-                       o.projection_tolerance, work.projection)
-    t = _lap(o, s.stage_ticks, STAGE_PROJECT, t)
-    bad = first_bad_body(s.body_pos, s.body_quat, s.body_vel, s.body_angvel,
-                         o.divergence_limit)
-    _lap(o, s.stage_ticks, STAGE_CHECK, t)
-    return (STEP_DIVERGED if bad >= 0 else STEP_OK), bad, np.int64(0)
+        store_contact_impulses(con, ncon, nfix, work.rows_per_contact, work.imp)
 
 
 @njit(cache=True)
@@ -205,23 +161,78 @@ def step_worlds(m, s, c, con, pairs, n, o, work):
     the state first became non-finite or ran away; or STEP_MORE_PAIRS / STEP_MORE_CONTACTS
     with the buffer size needed. On a failure it returns at once, the failing world
     mid-step: the caller restores what it saved (``call.py``).
+
+    Each step of a world (a substep) runs the stages in order: collide, forces,
+    integrate velocities, rows, solve, integrate positions, project joints, divergence
+    check; after the last, the joint coordinates.
     """
+    ng = m.geom_type.shape[0]
+    njrow = s.row_impulse.shape[1]
+    rows, imp, inv_inertia, caches = work.rows, work.imp, work.inv_inertia, work.caches
     # explicit actuator work only when something could push: a servo off the implicit
     # path, an applied joint torque or an MJCF actuator
     servoed_joints = np.any(c.pd_kp > 0.0) or np.any(c.pd_kd > 0.0)
     explicit_drives = m.act_joint.shape[0] > 0 or np.any(c.joint_applied != 0.0) or (
         o.pd_mode == PD_EXPLICIT and servoed_joints)
+    stable_pd = servoed_joints and o.pd_mode == PD_STABLE
     for w in range(s.body_pos.shape[0]):
         sw, cw, conw = world_of(s, w), world_of(c, w), world_of(con, w)
+        pos, quat, vel, angvel = sw.body_pos, sw.body_quat, sw.body_vel, sw.body_angvel
         drive = JointDrive(cw.motor_target, cw.pd_kp, cw.pd_kd, cw.pd_max, cw.pd_target_quat,
                            cw.pd_target_q, cw.pd_target_qd, cw.joint_applied)
         for k in range(n):
-            status, body, needed = substep(m, sw, cw, conw, pairs, drive, o, work,
-                                           explicit_drives, servoed_joints, k == n - 1)
-            if status != STEP_OK:
-                return status, w, k, body, needed
+            t = _start(o)
+            # collide
+            ncon = np.int64(0)
+            if ng > 1:
+                keep_previous_contacts(sw, conw, work.prev)
+                if work.listed_primitive:
+                    code, ncon = find_listed_contacts(m, sw, conw, pairs, o, work)
+                else:
+                    code, ncon = collide_world(m, pos, quat, work.gpos, work.gquat,
+                                               work.aabb_lo, work.aabb_hi, pairs, conw,
+                                               sw.contact_count[0], work.prev,
+                                               o.contact_margin, o.broadphase, work.listed)
+                if code != COLLIDE_OK:
+                    return (STEP_MORE_PAIRS if code == COLLIDE_PAIRS_FULL
+                            else STEP_MORE_CONTACTS), w, k, -1, ncon
+                sw.contact_count[0] = ncon
+            t = _lap(o, sw.stage_ticks, STAGE_COLLIDE, t)
+            # forces
+            add_forces(m, sw, cw, conw, ncon, drive, o, work, explicit_drives)
+            if stable_pd:
+                world_inverse_inertia(m, quat, inv_inertia)
+                stable_servo_forces(m, pos, quat, vel, angvel, drive, o.dt, o.erp, o.cfm,
+                                    o.gyroscopic, o.tolerance, rows, imp, work.vel_pred,
+                                    work.angvel_pred, inv_inertia, work.force, work.torque,
+                                    caches[0])
+            t = _lap(o, sw.stage_ticks, STAGE_FORCES, t)
+            integrate_velocities(m, quat, vel, angvel, work.force, work.torque, o.dt,
+                                 o.gyroscopic)
+            t = _lap(o, sw.stage_ticks, STAGE_INTEGRATE_VELOCITIES, t)
+            nrow = njrow + 6 * work.servoed.shape[0] + (
+                work.rows_per_contact * ncon if o.contact != CONTACT_PENALTY else 0)
+            if nrow > 0:
+                build_rows(m, sw, cw, conw, ncon, nrow, drive, o, work)
+                t = _lap(o, sw.stage_ticks, STAGE_ROWS, t)
+                # solve
+                if not solve_fast(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o,
+                                  caches, work.fast):
+                    sw.lcp_fallbacks[0] += solve_rows(m, rows, nrow, ncon, inv_inertia, vel,
+                                                      angvel, imp, o, caches)
+                keep_impulses(m, sw, conw, ncon, nrow, o, work, k == n - 1)
+                t = _lap(o, sw.stage_ticks, STAGE_SOLVE, t)
+            integrate_positions(m, pos, quat, vel, angvel, o.dt, o.quat_integration)
+            t = _lap(o, sw.stage_ticks, STAGE_INTEGRATE_POSITIONS, t)
+            if njrow > 0 and o.projection > 0:
+                project_joints(m, pos, quat, rows, inv_inertia, o.projection,
+                               o.projection_tolerance, work.projection)
+            t = _lap(o, sw.stage_ticks, STAGE_PROJECT, t)
+            bad = first_bad_body(pos, quat, vel, angvel, o.divergence_limit)
+            _lap(o, sw.stage_ticks, STAGE_CHECK, t)
+            if bad >= 0:
+                return STEP_DIVERGED, w, k, bad, np.int64(0)
         t = _start(o)
-        joint_coordinates(m, sw.body_pos, sw.body_quat, sw.body_vel, sw.body_angvel,
-                          sw.joint_q, sw.joint_qd, sw.joint_qrel)
+        joint_coordinates(m, pos, quat, vel, angvel, sw.joint_q, sw.joint_qd, sw.joint_qrel)
         _lap(o, sw.stage_ticks, STAGE_COORDINATES, t)
     return STEP_OK, -1, -1, -1, np.int64(0)
