@@ -15,10 +15,13 @@ def test_the_shipped_walk_policy_rolls_out_5_s_without_falling():
     policy.check(env.spec())
     obs = env.reset()
     start = env.world.body_pos[:, env.root].copy()
+    errors = []
     for _ in range(env.max_episode_steps):
         obs, reward, terminated, truncated, info = env.step(policy.act(obs))
         assert not terminated.any(), f"fell at {env.episode_steps[0] * env.dt:.2f} s"
+        errors.append(env.body_position_error().mean())
     assert truncated.all()                          # the 5 s limit, not a fall
     travelled = np.linalg.norm((env.world.body_pos[:, env.root] - start)[:, [0, 2]], axis=1)
     assert np.all(travelled > 3.0)                  # the clip walks 1.2 m/s: 6 m in 5 s
-    assert np.mean(env.body_position_error()) < 0.15
+    # the 100-episode evaluation of this policy: 29 mm (README); four worlds vary more
+    assert np.mean(errors) < 0.05
