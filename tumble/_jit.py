@@ -275,5 +275,10 @@ class EntryPoints:
         return entry
 
 
+def compiled_any(dispatcher):
+    """Whether ``dispatcher`` has compiled code for some argument types in this process."""
+    return bool(dispatcher.overloads)
+
+
 #: The process's entry points (a memo: it changes how fast a call starts, never a result).
 ENTRY_POINTS = EntryPoints()

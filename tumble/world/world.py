@@ -9,7 +9,7 @@ import warnings
 
 import numpy as np
 
-from .._jit import ENTRY_POINTS, tick_seconds
+from .._jit import ENTRY_POINTS, compiled_any, tick_seconds
 from ..errors import ModelError, SimulationError, StateError, TumbleWarning
 from ..model.model import Model
 from ..model.types import DYNAMIC
@@ -150,7 +150,7 @@ class World(StateMixin, ControlMixin, QueryMixin):
         earlier world of the process has compiled the step for the same argument types:
         the first ``step`` call then costs what the others do instead of a millisecond
         more. The first world of a process compiles the step on its first ``step``."""
-        if self.parallel or not call.step_boxed.overloads:
+        if self.parallel or not compiled_any(call.step_boxed):
             return
         o = self.step_options()
         work = self._make_work(o)
