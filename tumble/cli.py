@@ -66,6 +66,7 @@ def _view(args):
                     speed=args.speed, control=control, follow=_follow(args.follow, control),
                     contacts=args.contacts, forces=args.forces, joints=args.joints,
                     com=args.com, lighting=args.lighting, verbose=False)
+    _steering_controls(viewer, control)
     print(f"tumble viewer: open {viewer.url} in a browser (Ctrl-C to stop)", flush=True)
     viewer.serve_forever()
     return 0
@@ -106,12 +107,21 @@ def _train(args):
     except ImportError as exc:          # installed, but broken (e.g. a mismatched version)
         print(f"tumble train: error: {exc}", file=sys.stderr)
         return 2
-    clip = args.clip or "walk"
-    stem = clip
-    if clip.lower().endswith(".bvh"):
-        stem = os.path.splitext(os.path.basename(clip))[0]
-        # the policy's spec names its clip: absolute, so it plays from any directory
-        clip = os.path.abspath(clip)
+    def named(clip):
+        """A course clip name as it is; a BVH path made absolute (the policy's spec names
+        its clips, so it plays from any directory), and its file stem for the run's name."""
+        if clip.lower().endswith(".bvh"):
+            return os.path.abspath(clip), os.path.splitext(os.path.basename(clip))[0]
+        return clip, clip
+
+    if args.task == "amp":
+        from .rl.tasks.amp import DEFAULT_CLIPS
+        pairs = [named(c) for c in (args.clips or DEFAULT_CLIPS)]
+        clips = tuple(c for c, _ in pairs)
+        clip, stem = ", ".join(clips), "-".join(s for _, s in pairs)
+        args.clip = None
+    else:
+        clip, stem = named(args.clip or "walk")
     out = args.out or os.path.join("runs", f"{args.task}-{stem}")
     checkpoint = os.path.join(out, "checkpoint.pt")
     progress = not args.no_progress
@@ -123,7 +133,8 @@ def _train(args):
             ("CLIP", args.clip, c.clip), ("--envs", args.envs, c.num_envs),
             ("--seed", args.seed, c.seed)) if value is not None and value != kept]
         if ignored:
-            print(f"tumble train: note: the resumed run keeps its clip {c.clip!r}, "
+            kept = ", ".join(c.clips) if c.task == "amp" else repr(c.clip)
+            print(f"tumble train: note: the resumed run keeps its clip {kept}, "
                   f"{c.num_envs} characters and seed {c.seed}; ignored: {', '.join(ignored)}",
                   file=sys.stderr)
         if args.iterations is not None:
@@ -137,13 +148,13 @@ def _train(args):
             print(f"tumble train: error: {out} already holds a run ({checkpoint}); continue it "
                   f"with --resume or choose another --out", file=sys.stderr)
             return 2
-        defaults = TrainConfig()
-        config = TrainConfig(
-            clip=clip,
-            num_envs=defaults.num_envs if args.envs is None else args.envs,
-            iterations=defaults.iterations if args.iterations is None else args.iterations,
-            eval_every=defaults.eval_every if args.eval_every is None else args.eval_every,
-            seed=defaults.seed if args.seed is None else args.seed)
+        given = {k: v for k, v in (("num_envs", args.envs), ("iterations", args.iterations),
+                                   ("eval_every", args.eval_every), ("seed", args.seed))
+                 if v is not None}
+        if args.task == "amp":
+            config = TrainConfig.for_task("amp", clips=clips, **given)
+        else:
+            config = TrainConfig.for_task("imitate", clip=clip, **given)
         print(f"tumble train: {args.task} {clip!r} with {config.num_envs} characters, "
               f"{config.iterations} iterations, in {out}", flush=True)
         trainer = Trainer(out, config, progress=progress, log=print)
@@ -163,6 +174,26 @@ def _train(args):
     return 0
 
 
+
+def _run_options(parser, default_dir, *, envs):
+    """The options every training task takes."""
+    parser.add_argument("--out", metavar="DIR",
+                        help=f"run directory (default: runs/{default_dir}): checkpoint.pt, "
+                             f"policy.npz, best.npz, progress.csv, eval.csv")
+    parser.add_argument("--envs", type=_positive(int), metavar="N",
+                        help=f"characters simulated together (default {envs})")
+    parser.add_argument("--iterations", type=_positive(int), metavar="K",
+                        help="PPO iterations in all, counting those of a resumed run "
+                             "(default 1000)")
+    parser.add_argument("--hours", type=_positive(float), metavar="H",
+                        help="stop (and save) after this much wall time")
+    parser.add_argument("--resume", action="store_true",
+                        help="continue the run in DIR from its checkpoint")
+    parser.add_argument("--seed", type=int, metavar="S", help="random seed (default 0)")
+    parser.add_argument("--eval-every", type=_non_negative_int, metavar="K",
+                        help="evaluate every K iterations; 0: never (default 50)")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+
 def _play(args):
     from .rl.play import policy_world
     from .viewer.app import Viewer
@@ -178,9 +209,24 @@ def _play(args):
     viewer = Viewer(world, host=args.host, port=args.port, paused=args.paused,
                     speed=args.speed, control=driver, follow=root, contacts=args.contacts,
                     verbose=False)
+    if driver.clip_time is None:                 # a steering policy: heading and speed
+        from .rl.play import add_steering_gui
+        add_steering_gui(viewer, driver)
+        print("tumble play: steer it with the Command folder (speed, heading, turn buttons)",
+              flush=True)
+    _steering_controls(viewer, driver)
     print(f"tumble viewer: open {viewer.url} in a browser (Ctrl-C to stop)", flush=True)
     viewer.serve_forever()
     return 0
+
+
+def _steering_controls(viewer, control):
+    """A steering (AMP) policy gets heading and speed controls on the viewer's page."""
+    if getattr(control, "clip_time", 0.0) is None:
+        from .rl.play import add_steering_gui
+        add_steering_gui(viewer, control)
+        print("tumble: steer the character with the page's Command folder (speed, heading, "
+              "turn buttons)", flush=True)
 
 
 def _positive(kind):
@@ -262,23 +308,16 @@ def main(argv=None):
     imitate.add_argument("clip", metavar="CLIP", nargs="?", default=None,
                          help="a course clip name (walk, run, idle) or a BVH path "
                               "(default: walk)")
-    imitate.add_argument("--out", metavar="DIR",
-                         help="run directory (default: runs/imitate-CLIP): checkpoint.pt, "
-                              "policy.npz, best.npz, progress.csv, eval.csv")
-    imitate.add_argument("--envs", type=_positive(int), metavar="N",
-                         help="characters simulated together (default 128)")
-    imitate.add_argument("--iterations", type=_positive(int), metavar="K",
-                         help="PPO iterations in all, counting those of a resumed run "
-                              "(default 1000)")
-    imitate.add_argument("--hours", type=_positive(float), metavar="H",
-                         help="stop (and save) after this much wall time")
-    imitate.add_argument("--resume", action="store_true",
-                         help="continue the run in DIR from its checkpoint")
-    imitate.add_argument("--seed", type=int, metavar="S", help="random seed (default 0)")
-    imitate.add_argument("--eval-every", type=_non_negative_int, metavar="K",
-                         help="evaluate every K iterations; 0: never (default 50)")
-    imitate.add_argument("--no-progress", action="store_true", help="no progress bar")
+    _run_options(imitate, "imitate-CLIP", envs=128)
     imitate.set_defaults(func=_train)
+
+    amp = tasks.add_parser("amp", help="adversarial motion priors: a character steered by "
+                                       "heading and speed commands in the style of clips")
+    amp.add_argument("clips", metavar="CLIPS", nargs="*",
+                     help="course clip names (walk, run, idle) or BVH paths "
+                          "(default: walk run idle)")
+    _run_options(amp, "amp-CLIPS (runs/amp-walk-run-idle)", envs=256)
+    amp.set_defaults(func=_train)
 
     play = sub.add_parser("play", help="a trained policy in the browser viewer (needs "
                                        "tumble[viewer])")

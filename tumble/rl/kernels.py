@@ -1,4 +1,5 @@
-"""Compiled kernels of the imitation task, each over all N worlds of a batch in one call.
+"""Compiled kernels of the learning tasks (imitation, AMP), each over all N worlds of a batch
+in one call.
 
 Frames. The *heading frame* of a character is the world frame turned about the vertical
 axis (index ``up``: 1 for Y up, 2 for Z up) by the root body's heading, the angle of its x
@@ -7,7 +8,6 @@ it faces. Observations and the end-effector term of the reward are measured in i
 """
 import math
 
-import numpy as np
 from numba import njit
 
 from ..math.quat import quat_conj, quat_exp, quat_mul, quat_rotate
@@ -210,3 +210,116 @@ def fallen(ground, allowed, root, up, body_pos, min_root_height, out):
             if ground[w, b] and not allowed[b]:
                 f = True
         out[w] = f
+
+
+# -- adversarial motion priors (tumble.rl.tasks.amp) ---------------------------------------
+
+# Per state: root height (1), root rotation as two axes (6), root linear and angular velocity
+# (3 + 3), all in the heading frame; then 9 per joint and 3 per end effector.
+AMP_ROOT_FEATURES = 13
+AMP_JOINT_FEATURES = 9
+
+
+@njit(cache=True)
+def amp_features(body_pos, body_quat, body_vel, body_angvel, joint_quat, joint_qd, root, up,
+                 joints, end_effectors, out):
+    """The discriminator's view of one state of every world (AMP, Peng et al. 2021), written
+    into ``out`` (N, F) float32, F = 13 + 9 len(joints) + 3 len(end_effectors).
+
+    In the root's heading frame: the root's height (m), its rotation's first two columns,
+    its linear (m/s) and angular (rad/s) velocity; then for each joint of ``joints``, its
+    local rotation's first two columns (6) and its rates ``joint_qd`` (3, joint frame,
+    rad/s); then each end effector's position relative to the root (m). Inputs as the
+    world's arrays with a world axis: body_* (N, nb, 3|4), joint_quat (N, nj, 4), joint_qd
+    (N, nj, 3).
+    """
+    N = body_pos.shape[0]
+    nj = joints.shape[0]
+    for w in range(N):
+        hinv = quat_conj(heading_quat(body_quat[w, root], up))
+        out[w, 0] = body_pos[w, root, up]
+        qr = quat_mul(hinv, body_quat[w, root])
+        t = quat_rotate(qr, (1.0, 0.0, 0.0))
+        n = quat_rotate(qr, (0.0, 1.0, 0.0))
+        v = quat_rotate(hinv, body_vel[w, root])
+        a = quat_rotate(hinv, body_angvel[w, root])
+        for c in range(3):
+            out[w, 1 + c] = t[c]
+            out[w, 4 + c] = n[c]
+            out[w, 7 + c] = v[c]
+            out[w, 10 + c] = a[c]
+        k = AMP_ROOT_FEATURES
+        for i in range(nj):
+            j = joints[i]
+            qj = (joint_quat[w, j, 0], joint_quat[w, j, 1], joint_quat[w, j, 2],
+                  joint_quat[w, j, 3])
+            t = quat_rotate(qj, (1.0, 0.0, 0.0))
+            n = quat_rotate(qj, (0.0, 1.0, 0.0))
+            for c in range(3):
+                out[w, k + c] = t[c]
+                out[w, k + 3 + c] = n[c]
+                out[w, k + 6 + c] = joint_qd[w, j, c]
+            k += AMP_JOINT_FEATURES
+        for e in range(end_effectors.shape[0]):
+            b = end_effectors[e]
+            d = (body_pos[w, b, 0] - body_pos[w, root, 0], body_pos[w, b, 1] - body_pos[w, root, 1],
+                 body_pos[w, b, 2] - body_pos[w, root, 2])
+            p = quat_rotate(hinv, d)
+            for c in range(3):
+                out[w, k + c] = p[c]
+            k += 3
+
+
+@njit(cache=True, inline="always")
+def heading_angle(q, up):
+    """The heading (rad) of a rotation ``q`` about the vertical ``up`` (see heading_quat)."""
+    x = quat_rotate(q, (1.0, 0.0, 0.0))
+    if up == 1:
+        return math.atan2(-x[2], x[0])
+    return math.atan2(x[1], x[0])
+
+
+@njit(cache=True)
+def heading_command(body_quat, root, up, forward, target_heading, target_speed, obs, start):
+    """The command part of every world's observation, from column ``start`` of ``obs``:
+    cos and sin of the commanded heading relative to the character's (rad: the root's
+    heading plus ``forward``, the angle from the root's x axis to where it walks), and the
+    commanded speed (m/s)."""
+    for w in range(body_quat.shape[0]):
+        q = (body_quat[w, root, 0], body_quat[w, root, 1], body_quat[w, root, 2],
+             body_quat[w, root, 3])
+        d = target_heading[w] - heading_angle(q, up) - forward
+        obs[w, start] = math.cos(d)
+        obs[w, start + 1] = math.sin(d)
+        obs[w, start + 2] = target_speed[w]
+
+
+@njit(cache=True)
+def heading_reward(body_vel, body_mass, up, target_heading, target_speed, scale, reward,
+                   com_vel):
+    """Task reward of a commanded heading and speed, ``exp(-scale |v - v* d*|^2)``, with v
+    the centre of mass's horizontal velocity (m/s), d* the unit horizontal direction of
+    ``target_heading`` (rad about the vertical, 0 along x) and v* ``target_speed``. Writes
+    ``reward`` (N,) and ``com_vel`` (N, 3) (the centre of mass's velocity)."""
+    N, nb = body_vel.shape[0], body_vel.shape[1]
+    total = 0.0
+    for b in range(nb):
+        total += body_mass[b]
+    for w in range(N):
+        v0 = 0.0
+        v1 = 0.0
+        v2 = 0.0
+        for b in range(nb):
+            v0 += body_mass[b] * body_vel[w, b, 0]
+            v1 += body_mass[b] * body_vel[w, b, 1]
+            v2 += body_mass[b] * body_vel[w, b, 2]
+        com_vel[w, 0], com_vel[w, 1], com_vel[w, 2] = v0 / total, v1 / total, v2 / total
+        c = math.cos(target_heading[w])
+        s = math.sin(target_heading[w])
+        if up == 1:              # heading theta turns x towards -z about y
+            e0 = com_vel[w, 0] - target_speed[w] * c
+            e1 = com_vel[w, 2] + target_speed[w] * s
+        else:
+            e0 = com_vel[w, 0] - target_speed[w] * c
+            e1 = com_vel[w, 1] - target_speed[w] * s
+        reward[w] = math.exp(-scale * (e0 * e0 + e1 * e1))

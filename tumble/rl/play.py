@@ -33,7 +33,7 @@ from ..errors import ModelError
 from .policy import Policy
 
 __all__ = ["PolicyDriver", "load_policy", "policy_world", "shipped_policies", "is_policy_file",
-           "POLICY_DIR"]
+           "add_steering_gui", "POLICY_DIR"]
 
 # Policies that ship with tumble: tumble/rl/policies/imitate_<name>.npz is "<name>".
 POLICY_DIR = Path(__file__).resolve().parent / "policies"
@@ -127,6 +127,9 @@ class PolicyDriver:
             raise ModelError(f"PolicyDriver: restart_after must be > 0 s or None, got "
                              f"{restart_after!r}")
         self.policy, self.env, self.world = policy, env, env.world
+        # an imitation follows a clip in time; a steering task (AMP) follows commands
+        self._follows_clip = hasattr(env, "ref_time")
+        self._commanded = False
         self.fall_delay = float(fall_delay)
         self.restart_after = None if restart_after is None else float(restart_after)
         if seed is not None:
@@ -188,12 +191,20 @@ class PolicyDriver:
     # -- starts and jumps in time ----------------------------------------------------------
     def _start(self, t, clip_time=None):
         """Put the character in the clip's state at ``clip_time`` (None: a random phase)
-        and begin an episode at world time ``t`` (None: the world's)."""
+        and begin an episode at world time ``t`` (None: the world's). A steering task's
+        character starts in a random clip frame and keeps the command it was given."""
         env = self.env
-        rng = env.rng if clip_time is None else _FixedStart(clip_time)
-        env._restart(np.array([0]), rng)
         t = float(self.world.time) if t is None else t
-        self._episodes.append((t, float(env.ref_time[0])))
+        if not self._follows_clip:
+            command = env.target_heading.copy(), env.target_speed.copy()
+            env._restart(np.array([0]), env.rng)
+            if self._commanded:
+                env.target_heading[:], env.target_speed[:] = command
+            self._episodes.append((t, None))
+        else:
+            rng = env.rng if clip_time is None else _FixedStart(clip_time)
+            env._restart(np.array([0]), rng)
+            self._episodes.append((t, float(env.ref_time[0])))
         self._fallen_at = None
         self._substep = 0
 
@@ -207,7 +218,7 @@ class PolicyDriver:
         while eps and eps[-1][0] > t + half:
             eps.pop()
         self._acted = False
-        if not eps or abs(t - eps[-1][0]) <= half:
+        if not eps or abs(t - eps[-1][0]) <= half or not self._follows_clip:
             # time 0 after the viewer's reset (the world is in the model's built pose, not
             # on the clip), or the frame an episode began at: begin it as it began
             clip_time = eps.pop()[1] if eps else None
@@ -222,8 +233,19 @@ class PolicyDriver:
     # -- reading -------------------------------------------------------------------------
     @property
     def clip_time(self):
-        """The clip time (s) of the reference the character is following."""
-        return float(self.env.ref_time[0])
+        """The clip time (s) of the reference the character is following (None for a
+        steering task)."""
+        return float(self.env.ref_time[0]) if self._follows_clip else None
+
+    def command(self, heading=None, speed=None, *, relative=False):
+        """Steer a steering task's character: a heading (rad, about the vertical; with
+        ``relative`` turned from the character's own) and a speed (m/s); None keeps the
+        current one. Kept across restarts."""
+        if self._follows_clip:
+            raise ModelError("PolicyDriver.command: this policy imitates a clip; only a "
+                             "steering (amp) policy takes commands")
+        self.env.set_command(heading, speed, relative=relative)
+        self._commanded = True
 
     @property
     def episode_start(self):
@@ -235,7 +257,8 @@ class PolicyDriver:
         return self._fallen_at is not None
 
     def __repr__(self):
-        return (f"<tumble.rl.PolicyDriver: {self.policy.spec.get('clip')}, {self.steps} policy "
+        what = self.policy.spec.get("clip") or ", ".join(self.policy.spec.get("clips", ()))
+        return (f"<tumble.rl.PolicyDriver: {what}, {self.steps} policy "
                 f"steps, {self.falls} falls, {self.restarts} restarts>")
 
 
@@ -254,9 +277,13 @@ def policy_world(policy, *, fall_delay=1.0, restart_after=None, seed=None, **ove
 
     policy = load_policy(policy)
     spec = policy.spec
-    if spec.get("task", "imitate") != "imitate":
+    task = spec.get("task", "imitate")
+    if task == "amp":
+        return _steering_world(policy, fall_delay=fall_delay, restart_after=restart_after,
+                               seed=seed, **overrides)
+    if task != "imitate":
         raise ModelError(f"policy_world: the policy is for the task {spec.get('task')!r}; "
-                         f"this tumble plays 'imitate' policies")
+                         f"this tumble plays 'imitate' and 'amp' policies")
     kwargs = {}
     for key in ("control_hz", "physics_hz", "contact", "residual"):
         if key in spec:
@@ -274,3 +301,67 @@ def policy_world(policy, *, fall_delay=1.0, restart_after=None, seed=None, **ove
             from None
     driver = PolicyDriver(policy, env, fall_delay=fall_delay, restart_after=restart_after)
     return env.world, driver, env
+
+
+def _steering_world(policy, *, fall_delay, restart_after, seed, **overrides):
+    """policy_world for a steering (AMP) policy: an AMPEnv of one world whose commands
+    change only when told (``driver.command``)."""
+    from .tasks.amp import AMPEnv
+
+    spec = policy.spec
+    kwargs = {k: spec[k] for k in ("control_hz", "physics_hz", "contact") if k in spec}
+    if "action_scale" in spec:
+        kwargs["action_scale"] = np.asarray(spec["action_scale"], float)
+    clips = overrides.pop("clips", spec.get("clips"))
+    kwargs.update(overrides)
+    kwargs.setdefault("seed", seed)
+    try:
+        env = AMPEnv(1, clips, autoreset=False, **kwargs)
+    except (FileNotFoundError, OSError) as exc:
+        raise ModelError(f"policy_world: the policy was trained on the clips {clips!r}, one "
+                         f"of which cannot be read here ({exc}); pass clips=[...]") from None
+    env.commands_change = False
+    driver = PolicyDriver(policy, env, fall_delay=fall_delay, restart_after=restart_after)
+    driver.command(0.0, 1.0, relative=True)
+    return env.world, driver, env
+
+
+def add_steering_gui(viewer, driver):
+    """Heading and speed controls for a steering policy in a :class:`~tumble.viewer.Viewer`
+    page: a speed slider, a heading slider (degrees) and buttons that turn by 90 degrees."""
+    import math
+
+    gui = viewer.server.gui
+    env = driver.env
+    with gui.add_folder("Command"):
+        speed = gui.add_slider("Speed (m/s)", min=0.0, max=2.5, step=0.05,
+                               initial_value=float(env.target_speed[0]))
+        heading = gui.add_slider("Heading (deg)", min=-180.0, max=180.0, step=5.0,
+                                 initial_value=_degrees(env.target_heading[0]))
+        left = gui.add_button("Turn left 90°")
+        right = gui.add_button("Turn right 90°")
+
+    def command(h_deg=None, v=None):
+        with viewer._lock:
+            driver.command(None if h_deg is None else math.radians(h_deg), v)
+
+    @speed.on_update
+    def _(event):
+        command(v=float(speed.value))
+
+    @heading.on_update
+    def _(event):
+        command(h_deg=float(heading.value))
+
+    def turn(sign):
+        h = _degrees(env.target_heading[0] + sign * 0.5 * math.pi)
+        heading.value = h               # its on_update sends the command
+
+    left.on_click(lambda event: turn(1.0))
+    right.on_click(lambda event: turn(-1.0))
+    return speed, heading
+
+
+def _degrees(rad):
+    """An angle in degrees in [-180, 180)."""
+    return float((np.degrees(rad) + 180.0) % 360.0 - 180.0)

@@ -19,7 +19,6 @@ optimiser, iteration, samples, wall time, random generators' states, configurati
 """
 import csv
 import dataclasses
-import json
 import os
 import time
 from dataclasses import dataclass, field
@@ -29,7 +28,8 @@ import numpy as np
 
 from ..errors import ModelError
 from .policy import Policy
-from .tasks.imitation import REWARD_TERMS, ImitationEnv
+from .tasks.amp import DEFAULT_CLIPS, AMPEnv
+from .tasks.imitation import ImitationEnv
 
 try:
     import torch
@@ -57,6 +57,9 @@ class TrainConfig:
     (20 minibatch steps) is about 0.03, the trust region PPO wants (AMP uses 2e-5).
     Run: iterations, save_every, eval_every (iterations), eval_episodes, eval_seconds, seed,
     threads (PyTorch's CPU threads; Numba's step uses all of its own).
+    AMP (task "amp", see ``tumble.rl.amp``): clips (default walk, run, idle), task_weight and
+    style_weight (the reward's mix), disc_hidden, disc_learning_rate, disc_batches,
+    disc_batch_size, gp_weight, replay_size. ``clip`` and ``residual`` are imitation's only.
     """
     task: str = "imitate"
     clip: str = "walk"
@@ -87,21 +90,48 @@ class TrainConfig:
     eval_seconds: float = 20.0
     seed: int = 0
     threads: int = 2
+    clips: tuple = ()
+    task_weight: float = 0.5
+    style_weight: float = 0.5
+    disc_hidden: tuple = (512, 256)
+    disc_learning_rate: float = 1e-4
+    disc_batches: int = 8
+    disc_batch_size: int = 512
+    gp_weight: float = 5.0
+    replay_size: int = 100_000
+
+    @classmethod
+    def for_task(cls, task, **overrides):
+        """The defaults of a task ('imitate' or 'amp') with ``overrides``."""
+        if task == "amp":
+            base = dict(task="amp", clips=DEFAULT_CLIPS, num_envs=256, action_scale=1.0,
+                        init_std=0.2, learning_rate=2e-5, eval_seconds=60.0,
+                        eval_episodes=16)
+        elif task == "imitate":
+            base = {}
+        else:
+            raise ModelError(f"train: unknown task {task!r} (known: 'imitate', 'amp')")
+        base.update(overrides)
+        return cls(**base)
 
     def env_options(self):
-        return dict(control_hz=self.control_hz, physics_hz=self.physics_hz,
-                    contact=self.contact, residual=self.residual,
-                    action_scale=self.action_scale, **self.env_kwargs)
+        opts = dict(control_hz=self.control_hz, physics_hz=self.physics_hz,
+                    contact=self.contact, action_scale=self.action_scale, **self.env_kwargs)
+        if self.task != "amp":
+            opts["residual"] = self.residual
+        return opts
 
     def to_dict(self):
         d = dataclasses.asdict(self)
-        d["hidden"] = list(self.hidden)
+        for k in ("hidden", "disc_hidden", "clips"):
+            d[k] = list(d[k])
         return d
 
     @classmethod
     def from_dict(cls, d):
         d = dict(d)
-        d["hidden"] = tuple(d.get("hidden", cls.hidden))
+        for k in ("hidden", "disc_hidden", "clips"):
+            d[k] = tuple(d.get(k, getattr(cls, k)))
         known = {f.name for f in dataclasses.fields(cls)}
         return cls(**{k: v for k, v in d.items() if k in known})
 
@@ -142,11 +172,17 @@ class _TorchVecEnv(VecEnv):
         terms = self.env.reward_terms
         extras = {"time_outs": torch.from_numpy(truncated),
                   "log": {f"/reward/{n}": float(terms[:, k].mean())
-                          for k, n in enumerate(REWARD_TERMS)}}
+                          for k, n in enumerate(self.env.reward_term_names)}}
         return (self._wrap(obs), torch.from_numpy(reward.astype(np.float32)), dones, extras)
 
 
 def _make_env(config, num_envs, *, seed, episode_seconds, autoreset=True):
+    if config.task == "amp":
+        return AMPEnv(num_envs, list(config.clips or DEFAULT_CLIPS),
+                      episode_seconds=episode_seconds, seed=seed, autoreset=autoreset,
+                      **config.env_options())
+    if config.task != "imitate":
+        raise ModelError(f"train: unknown task {config.task!r} (known: 'imitate', 'amp')")
     return ImitationEnv(num_envs, config.clip, episode_seconds=episode_seconds, seed=seed,
                         autoreset=autoreset, **config.env_options())
 
@@ -232,6 +268,13 @@ class Trainer:
         torch.manual_seed(c.seed)
         self.env = _make_env(c, c.num_envs, seed=c.seed, episode_seconds=c.episode_seconds)
         self.vec = _TorchVecEnv(self.env, self.env.max_episode_steps)
+        self.style = None
+        if c.task == "amp":
+            from .amp import AMPStyle
+            self.style = AMPStyle(self.env, task_weight=c.task_weight, style_weight=c.style_weight,
+                                  hidden=c.disc_hidden, learning_rate=c.disc_learning_rate,
+                                  batches=c.disc_batches, batch_size=c.disc_batch_size,
+                                  gp_weight=c.gp_weight, replay_size=c.replay_size, seed=c.seed)
         cfg = {
             "num_steps_per_env": c.steps_per_env, "obs_groups": {"actor": ["policy"],
                                                                  "critic": ["policy"]},
@@ -264,6 +307,8 @@ class Trainer:
             self.samples = saved["samples"]
             self.wall = saved["wall"]
             self.best = saved.get("best", -np.inf)
+            if self.style is not None:
+                self.style.load_state_dict(saved["style"])
             torch.set_rng_state(saved["torch_rng"])
             self.env.rng.bit_generator.state = saved["env_rng"]
             self.log(f"resumed {self.out_dir} at iteration {self.iteration} "
@@ -311,6 +356,8 @@ class Trainer:
                  "wall": self.wall, "best": self.best, "config": self.config.to_dict(),
                  "torch_rng": torch.get_rng_state(), "env_rng": self.env.rng.bit_generator.state,
                  "spec": self.spec()}
+        if self.style is not None:
+            state["style"] = self.style.state_dict()
         tmp = self.out_dir / "checkpoint.pt.tmp"
         torch.save(state, tmp)
         os.replace(tmp, self.out_dir / "checkpoint.pt")
@@ -331,11 +378,17 @@ class Trainer:
 
     def evaluate(self):
         c = self.config
-        result = evaluate(self.policy(), c, episodes=c.eval_episodes, seconds=c.eval_seconds)
+        if c.task == "amp":
+            from .amp_eval import evaluate_amp
+            result = evaluate_amp(self.policy(), c, episodes=c.eval_episodes,
+                                  seconds=c.eval_seconds, style=self.style)
+            score = result["survived"] + result["speed_within"] + result["heading_within"]
+        else:
+            result = evaluate(self.policy(), c, episodes=c.eval_episodes, seconds=c.eval_seconds)
+            score = result["survived"] - result["mean_error"]
         row = {"iteration": self.iteration, "samples": self.samples, "wall_hours": self.wall / 3600,
-               **{k: v for k, v in result.items() if k != "body_error"}}
+               **{k: v for k, v in result.items() if not isinstance(v, (list, dict))}}
         self._csv("eval.csv", row)
-        score = result["survived"] - result["mean_error"]
         if score > self.best:
             self.best = score
             self.policy().save(self.out_dir / "best.npz")
@@ -360,16 +413,20 @@ class Trainer:
         ep_returns, ep_steps = [], []
         while self.iteration < total:
             start = time.perf_counter()
+            names = self.env.reward_term_names
             with torch.inference_mode():
-                terms = np.zeros(5)
-                rewards = 0.0
+                terms = np.zeros(len(names))
+                rewards = style = 0.0
                 for _ in range(c.steps_per_env):
                     actions = self.alg.act(obs)
                     obs, reward, dones, extras = self.vec.step(actions)
+                    info = self.vec.last_info
+                    if self.style is not None:
+                        reward = self.style.combine(reward, info["amp_obs"])
+                        style += self.style.last_style
                     self.alg.process_env_step(obs, reward, dones, extras)
                     rewards += float(reward.mean())
-                    terms += [extras["log"][f"/reward/{n}"] for n in REWARD_TERMS]
-                    info = self.vec.last_info
+                    terms += [extras["log"][f"/reward/{n}"] for n in names]
                     if "episode_return" in info:
                         done = info["done"]
                         ep_returns.extend(info["episode_return"][done].tolist())
@@ -378,6 +435,8 @@ class Trainer:
                 self.alg.compute_returns(obs)
             t1 = time.perf_counter()
             losses = self.alg.update()
+            if self.style is not None:
+                losses.update(self.style.update())
             learn = time.perf_counter() - t1
             n = c.steps_per_env * c.num_envs
             self.samples += n
@@ -388,7 +447,8 @@ class Trainer:
                    "reward": rewards / c.steps_per_env,
                    "episode_return": float(np.mean(ep_returns[-200:])) if ep_returns else np.nan,
                    "episode_seconds": float(np.mean(ep_steps[-200:])) * self.env.dt if ep_steps else np.nan,
-                   **{f"r_{name}": terms[k] / c.steps_per_env for k, name in enumerate(REWARD_TERMS)},
+                   **{f"r_{name}": terms[k] / c.steps_per_env for k, name in enumerate(names)},
+                   **({"r_style": style / c.steps_per_env} if self.style is not None else {}),
                    **{f"loss_{k}": float(v) for k, v in losses.items()},
                    "learning_rate": float(self.alg.learning_rate),
                    "action_std": float(self.alg.get_policy().output_std.detach().mean()),
@@ -407,9 +467,14 @@ class Trainer:
                 self.save()
             if c.eval_every and (self.iteration % c.eval_every == 0 or self.iteration == total):
                 last_eval = self.evaluate()
+                if c.task == "amp":
+                    what = (f"speed error {last_eval['speed_error']:.2f} m/s, "
+                            f"{last_eval['speed_within']:.2f} within 0.2, heading "
+                            f"{last_eval['heading_within']:.2f} within 3 s")
+                else:
+                    what = f"error {last_eval['mean_error'] * 1000:.1f} mm"
                 self.log(f"eval at {self.iteration}: survived {last_eval['survived']:.2f}, "
-                         f"error {last_eval['mean_error'] * 1000:.1f} mm, "
-                         f"{last_eval['mean_seconds']:.1f} s")
+                         f"{what}, {last_eval['mean_seconds']:.1f} s")
                 self.alg.train_mode()
             if out_of_time:
                 break

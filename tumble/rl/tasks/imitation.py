@@ -328,6 +328,8 @@ class ImitationEnv(BatchedEnv):
         order of ``REWARD_TERMS``."""
         return self._terms.copy()
 
+    reward_term_names = REWARD_TERMS
+
     def reference_sample(self):
         """The reference states at the worlds' current clip times (a ReferenceSample)."""
         return self.reference.sample(self.ref_time)
