@@ -20,7 +20,22 @@ import numpy as np
 
 from ..errors import ModelError, SimulationError, TumbleError
 
-__all__ = ["BatchedEnv", "ActionError"]
+__all__ = ["BatchedEnv", "ActionError", "check_task_settings"]
+
+
+def check_task_settings(where, num_envs, control_hz, physics_hz, episode_seconds):
+    """ModelError (naming ``where`` and the setting) unless num_envs, control_hz and
+    physics_hz are positive integers, physics_hz a multiple of control_hz and
+    episode_seconds positive."""
+    for name, v in (("num_envs", num_envs), ("control_hz", control_hz),
+                    ("physics_hz", physics_hz)):
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+            raise ModelError(f"{where}: {name} must be a positive integer, got {v!r}")
+    if physics_hz % control_hz:
+        raise ModelError(f"{where}: physics_hz ({physics_hz}) must be a multiple of "
+                         f"control_hz ({control_hz})")
+    if not np.isfinite(episode_seconds) or episode_seconds <= 0:
+        raise ModelError(f"{where}: episode_seconds must be > 0, got {episode_seconds!r}")
 
 
 class ActionError(TumbleError, ValueError):
@@ -170,6 +185,25 @@ class BatchedEnv:
             else:
                 self._needs_reset = True
         return self._obs.copy(), self._reward.copy(), terminated, truncated, info
+
+    def _view_character(self, where):
+        """Live (N, ...) views of the world's body, joint and servo-target arrays, the
+        world axis kept for one world too: ``_pos``, ``_quat``, ``_vel``, ``_angvel``,
+        ``_joint_quat``, ``_joint_qd``, ``_target_quat``, ``_target_q`` (the kernels write
+        the targets in place, so these must be views, not copies)."""
+        w, N = self.world, self.num_envs
+        nb, nj = self.model.nbody, self.model.njoint
+        self._pos = np.reshape(w.body_pos, (N, nb, 3))
+        self._quat = np.reshape(w.body_quat, (N, nb, 4))
+        self._vel = np.reshape(w.body_vel, (N, nb, 3))
+        self._angvel = np.reshape(w.body_angvel, (N, nb, 3))
+        self._joint_quat = np.reshape(w.joint_quat, (N, nj, 4))
+        self._joint_qd = np.reshape(w.joint_qd, (N, nj, 3))
+        self._target_quat = np.reshape(w.pd_target_quat, (N, nj, 4))
+        self._target_q = np.reshape(w.pd_target_q, (N, nj, 3))
+        if not (np.shares_memory(self._target_quat, w.pd_target_quat)
+                and np.shares_memory(self._target_q, w.pd_target_q)):
+            raise ModelError(f"{where}: the world's servo targets are not contiguous arrays")
 
     def _step_physics(self):
         """``world.step(substeps)``; a world that diverges is restarted and the batch

@@ -63,11 +63,15 @@ class ImitateEnv(gymnasium.Env):
     metadata = {"render_modes": ["rgb_array"], "render_fps": 30}
 
     def __init__(self, clip="walk", render_mode=None, render_size=(480, 270), **kwargs):
+        self._setup(IMITATE_ID, lambda: ImitationEnv(1, clip, autoreset=False, **kwargs),
+                    render_mode, render_size, kwargs)
+
+    def _setup(self, name, make_task, render_mode, render_size, kwargs):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"tumble/Imitate-v0: render_mode must be None or one of "
+            raise ValueError(f"{name}: render_mode must be None or one of "
                              f"{self.metadata['render_modes']}, got {render_mode!r}")
         kwargs.setdefault("parallel", False)
-        self.task = ImitationEnv(1, clip, autoreset=False, **kwargs)
+        self.task = make_task()
         self.observation_space = observation_space(self.task)
         self.action_space = action_space(self.task)
         self.metadata = dict(self.metadata, render_fps=self.task.control_hz)
@@ -117,8 +121,11 @@ class ImitateVectorEnv(VectorEnv):
     metadata = {"autoreset_mode": AutoresetMode.SAME_STEP, "render_modes": []}
 
     def __init__(self, num_envs=1, clip="walk", **kwargs):
-        self.task = ImitationEnv(num_envs, clip, autoreset=True, **kwargs)
-        self.num_envs = int(num_envs)
+        self._setup(ImitationEnv(num_envs, clip, autoreset=True, **kwargs))
+
+    def _setup(self, task):
+        self.task = task
+        self.num_envs = int(task.num_envs)
         self.single_observation_space = observation_space(self.task)
         self.single_action_space = action_space(self.task)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
@@ -149,17 +156,8 @@ class SteerEnv(ImitateEnv):
     task, ``tumble/Steer-v0``); ``info["amp_obs"]`` (2F,) is the step's transition."""
 
     def __init__(self, clips=DEFAULT_CLIPS, render_mode=None, render_size=(480, 270), **kwargs):
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"tumble/Steer-v0: render_mode must be None or one of "
-                             f"{self.metadata['render_modes']}, got {render_mode!r}")
-        kwargs.setdefault("parallel", False)
-        self.task = AMPEnv(1, clips, autoreset=False, **kwargs)
-        self.observation_space = observation_space(self.task)
-        self.action_space = action_space(self.task)
-        self.metadata = dict(self.metadata, render_fps=self.task.control_hz)
-        self.render_mode = render_mode
-        self._render_size = tuple(int(v) for v in render_size)
-        self._renderer = self._camera = None
+        self._setup(STEER_ID, lambda: AMPEnv(1, clips, autoreset=False, **kwargs),
+                    render_mode, render_size, kwargs)
 
     def _command(self):
         return {"target_heading": float(self.task.target_heading[0]),
@@ -183,13 +181,7 @@ class SteerVectorEnv(ImitateVectorEnv):
     ``infos["amp_obs"]`` (N, 2F) holds every world's transition before any reset."""
 
     def __init__(self, num_envs=1, clips=DEFAULT_CLIPS, **kwargs):
-        self.task = AMPEnv(num_envs, clips, autoreset=True, **kwargs)
-        self.num_envs = int(num_envs)
-        self.single_observation_space = observation_space(self.task)
-        self.single_action_space = action_space(self.task)
-        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
-        self.action_space = batch_space(self.single_action_space, self.num_envs)
-        self.metadata = dict(self.metadata, render_fps=self.task.control_hz)
+        self._setup(AMPEnv(num_envs, clips, autoreset=True, **kwargs))
 
     def step(self, actions):
         obs, reward, terminated, truncated, infos = super().step(actions)

@@ -23,14 +23,21 @@ BODY_OBS = 15
 
 
 @njit(cache=True, inline="always")
+def heading_angle(q, up):
+    """The heading (rad) of a rotation ``q`` about the vertical ``up`` (see heading_quat)."""
+    x = quat_rotate(q, (1.0, 0.0, 0.0))
+    if up == 1:
+        return math.atan2(-x[2], x[0])
+    return math.atan2(x[1], x[0])
+
+
+@njit(cache=True, inline="always")
 def heading_quat(q, up):
     """Rotation about the vertical axis ``up`` (1 or 2) by the heading of ``q``: the angle
     of q's x axis projected on the ground, measured about the vertical."""
-    x = quat_rotate(q, (1.0, 0.0, 0.0))
+    theta = heading_angle(q, up)
     if up == 1:
-        theta = math.atan2(-x[2], x[0])
         return (0.0, math.sin(0.5 * theta), 0.0, math.cos(0.5 * theta))
-    theta = math.atan2(x[1], x[0])
     return (0.0, 0.0, math.sin(0.5 * theta), math.cos(0.5 * theta))
 
 
@@ -268,15 +275,6 @@ def amp_features(body_pos, body_quat, body_vel, body_angvel, joint_quat, joint_q
             for c in range(3):
                 out[w, k + c] = p[c]
             k += 3
-
-
-@njit(cache=True, inline="always")
-def heading_angle(q, up):
-    """The heading (rad) of a rotation ``q`` about the vertical ``up`` (see heading_quat)."""
-    x = quat_rotate(q, (1.0, 0.0, 0.0))
-    if up == 1:
-        return math.atan2(-x[2], x[0])
-    return math.atan2(x[1], x[0])
 
 
 @njit(cache=True)

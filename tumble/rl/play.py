@@ -284,12 +284,7 @@ def policy_world(policy, *, fall_delay=1.0, restart_after=None, seed=None, **ove
     if task != "imitate":
         raise ModelError(f"policy_world: the policy is for the task {spec.get('task')!r}; "
                          f"this tumble plays 'imitate' and 'amp' policies")
-    kwargs = {}
-    for key in ("control_hz", "physics_hz", "contact", "residual"):
-        if key in spec:
-            kwargs[key] = spec[key]
-    if "action_scale" in spec:
-        kwargs["action_scale"] = np.asarray(spec["action_scale"], float)
+    kwargs = _env_settings(spec, ("control_hz", "physics_hz", "contact", "residual"))
     clip = overrides.pop("clip", spec.get("clip", "walk"))
     kwargs.update(overrides)
     kwargs.setdefault("seed", seed)
@@ -303,15 +298,21 @@ def policy_world(policy, *, fall_delay=1.0, restart_after=None, seed=None, **ove
     return env.world, driver, env
 
 
+def _env_settings(spec, keys):
+    """The environment keywords a policy's spec fixes: ``keys`` and the action scale."""
+    kwargs = {k: spec[k] for k in keys if k in spec}
+    if "action_scale" in spec:
+        kwargs["action_scale"] = np.asarray(spec["action_scale"], float)
+    return kwargs
+
+
 def _steering_world(policy, *, fall_delay, restart_after, seed, **overrides):
     """policy_world for a steering (AMP) policy: an AMPEnv of one world whose commands
     change only when told (``driver.command``)."""
     from .tasks.amp import AMPEnv
 
     spec = policy.spec
-    kwargs = {k: spec[k] for k in ("control_hz", "physics_hz", "contact") if k in spec}
-    if "action_scale" in spec:
-        kwargs["action_scale"] = np.asarray(spec["action_scale"], float)
+    kwargs = _env_settings(spec, ("control_hz", "physics_hz", "contact"))
     clips = overrides.pop("clips", spec.get("clips"))
     kwargs.update(overrides)
     kwargs.setdefault("seed", seed)

@@ -104,8 +104,10 @@ class TrainConfig:
     def for_task(cls, task, **overrides):
         """The defaults of a task ('imitate' or 'amp') with ``overrides``."""
         if task == "amp":
+            # a small action noise: the discriminator tells jittering joints from the
+            # clips' at once (AMP keeps its policy's standard deviation at 0.055 rad)
             base = dict(task="amp", clips=DEFAULT_CLIPS, num_envs=256, action_scale=1.0,
-                        init_std=0.2, learning_rate=2e-5, eval_seconds=60.0,
+                        init_std=0.1, learning_rate=2e-5, gp_weight=10.0, eval_seconds=60.0,
                         eval_episodes=16)
         elif task == "imitate":
             base = {}

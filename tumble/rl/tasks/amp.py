@@ -40,7 +40,7 @@ import numpy as np
 from ...errors import ModelError
 from ...character.ragdoll import Ragdoll, games105_ragdoll
 from ...math import quat_np as Q
-from ..env import BatchedEnv
+from ..env import BatchedEnv, check_task_settings
 from ..kernels import (AMP_JOINT_FEATURES, AMP_ROOT_FEATURES, BODY_OBS, amp_features, fallen,
                        heading_command, heading_reward, observe, pd_targets)
 from ..reference import ReferenceMotion, ReferenceSample
@@ -87,16 +87,7 @@ class AMPEnv(BatchedEnv):
                  task_scale=1.0, end_effectors=None, contact_bodies=None, min_root_height=0.3,
                  holdout=0.1, seed=None, autoreset=True, parallel=None):
         where = "AMPEnv"
-        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
-            raise ModelError(f"{where}: num_envs must be a positive integer, got {num_envs!r}")
-        for name, v in (("control_hz", control_hz), ("physics_hz", physics_hz)):
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
-                raise ModelError(f"{where}: {name} must be a positive integer, got {v!r}")
-        if physics_hz % control_hz:
-            raise ModelError(f"{where}: physics_hz ({physics_hz}) must be a multiple of "
-                             f"control_hz ({control_hz})")
-        if not np.isfinite(episode_seconds) or episode_seconds <= 0:
-            raise ModelError(f"{where}: episode_seconds must be > 0, got {episode_seconds!r}")
+        check_task_settings(where, num_envs, control_hz, physics_hz, episode_seconds)
         if isinstance(clips, (str, bytes)) or not hasattr(clips, "__len__") or len(clips) == 0:
             raise ModelError(f"{where}: clips must be a non-empty list of clip names, BVH paths "
                              f"or Motions, got {clips!r}")
@@ -167,19 +158,7 @@ class AMPEnv(BatchedEnv):
         super().__init__(world, substeps=physics_hz // control_hz,
                          max_episode_steps=max(1, int(round(episode_seconds * control_hz))),
                          seed=seed, autoreset=autoreset)
-        nb, nj = model.nbody, model.njoint
-        w = world
-        self._pos = np.reshape(w.body_pos, (N, nb, 3))
-        self._quat = np.reshape(w.body_quat, (N, nb, 4))
-        self._vel = np.reshape(w.body_vel, (N, nb, 3))
-        self._angvel = np.reshape(w.body_angvel, (N, nb, 3))
-        self._joint_quat = np.reshape(w.joint_quat, (N, nj, 4))
-        self._joint_qd = np.reshape(w.joint_qd, (N, nj, 3))
-        self._target_quat = np.reshape(w.pd_target_quat, (N, nj, 4))
-        self._target_q = np.reshape(w.pd_target_q, (N, nj, 3))
-        if not (np.shares_memory(self._target_quat, w.pd_target_quat)
-                and np.shares_memory(self._target_q, w.pd_target_q)):
-            raise ModelError(f"{where}: the world's servo targets are not contiguous arrays")
+        self._view_character(where)
 
     def _mean_pose(self):
         """Every joint's mean local rotation (nj, 4) and coordinates (nj, 3) over all frames
