@@ -102,8 +102,19 @@ def _train(args):
         print(f"tumble train: error: training needs PyTorch and rsl-rl ({' and '.join(missing)} "
               f"missing): pip install \"tumble[rl]\"", file=sys.stderr)
         return 2
+    distributed = args.workers is not None or args.ray is not None
+    if distributed and importlib.util.find_spec("ray") is None:
+        print('tumble train: error: --workers and --ray need Ray: pip install "tumble[ray]"',
+              file=sys.stderr)
+        return 2
     try:
         from .rl.train import TrainConfig, Trainer
+        make_trainer = Trainer
+        if distributed:
+            import functools
+            from .rl.distributed import RayTrainer
+            make_trainer = functools.partial(RayTrainer, workers=args.workers or 2,
+                                             address=args.ray)
     except ImportError as exc:          # installed, but broken (e.g. a mismatched version)
         print(f"tumble train: error: {exc}", file=sys.stderr)
         return 2
@@ -127,7 +138,7 @@ def _train(args):
     progress = not args.no_progress
     if args.resume:
         # the run goes on as it was configured; only its length and schedule may change
-        trainer = Trainer(out, None, resume=True, progress=progress, log=print)
+        trainer = make_trainer(out, None, resume=True, progress=progress, log=print)
         c = trainer.config
         ignored = [f"{flag} {value}" for flag, value, kept in (
             ("CLIP", args.clip, c.clip), ("--envs", args.envs, c.num_envs),
@@ -157,7 +168,7 @@ def _train(args):
             config = TrainConfig.for_task("imitate", clip=clip, **given)
         print(f"tumble train: {args.task} {clip!r} with {config.num_envs} characters, "
               f"{config.iterations} iterations, in {out}", flush=True)
-        trainer = Trainer(out, config, progress=progress, log=print)
+        trainer = make_trainer(out, config, progress=progress, log=print)
     try:
         trainer.run(max_hours=args.hours)
     except KeyboardInterrupt:
@@ -167,6 +178,9 @@ def _train(args):
         print(f"\ntumble train: interrupted at iteration {trainer.iteration}; saved, continue "
               f"with: tumble train {args.task} --out {out} --resume", file=sys.stderr)
         return 130
+    finally:
+        if hasattr(trainer, "close"):          # Ray workers
+            trainer.close()
     policy = os.path.join(out, "policy.npz")
     print(f"tumble train: iteration {trainer.iteration}, {trainer.samples} samples, "
           f"{trainer.wall / 3600:.2f} h; policy written to {policy}", flush=True)
@@ -193,6 +207,12 @@ def _run_options(parser, default_dir, *, envs):
     parser.add_argument("--eval-every", type=_non_negative_int, metavar="K",
                         help="evaluate every K iterations; 0: never (default 50)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument("--workers", type=_positive(int), metavar="K",
+                        help="collect the samples in K Ray workers of N characters each "
+                             "(needs tumble[ray]; a local Ray cluster unless --ray)")
+    parser.add_argument("--ray", metavar="ADDRESS",
+                        help="the Ray cluster to run the workers on ('auto' or HOST:PORT; "
+                             "start it with 'ray start --head')")
 
 def _play(args):
     from .rl.play import policy_world

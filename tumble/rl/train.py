@@ -243,6 +243,126 @@ def evaluate(policy, config=None, *, episodes=32, seconds=20.0, seed=12345, env=
             "mean_reward": rew_sum / max(rew_count, 1), "episodes": N}
 
 
+
+def algorithm_config(c):
+    """rsl-rl's configuration of PPO and its networks for a TrainConfig."""
+    return {
+        "num_steps_per_env": c.steps_per_env, "obs_groups": {"actor": ["policy"],
+                                                             "critic": ["policy"]},
+        "multi_gpu": None,
+        "algorithm": {"class_name": "PPO", "num_learning_epochs": c.epochs,
+                      "num_mini_batches": c.minibatches, "learning_rate": c.learning_rate,
+                      "schedule": "adaptive", "desired_kl": c.desired_kl, "gamma": c.gamma,
+                      "lam": c.lam, "clip_param": c.clip_param,
+                      "entropy_coef": c.entropy_coef, "max_grad_norm": 1.0,
+                      "value_loss_coef": 1.0, "use_clipped_value_loss": True},
+        "actor": {"class_name": "MLPModel", "hidden_dims": list(c.hidden),
+                  "activation": c.activation, "obs_normalization": True,
+                  "distribution_cfg": {"class_name": "GaussianDistribution",
+                                       "init_std": c.init_std}},
+        "critic": {"class_name": "MLPModel", "hidden_dims": list(c.hidden),
+                   "activation": c.activation, "obs_normalization": True},
+    }
+
+
+def make_algorithm(c, num_envs, observation_size, action_size):
+    """rsl-rl's PPO for ``num_envs`` worlds (its rollout storage holds them all)."""
+    import contextlib
+    import io
+    from types import SimpleNamespace
+    obs = TensorDict({"policy": torch.zeros(num_envs, observation_size)},
+                     batch_size=[num_envs])
+    env = SimpleNamespace(num_envs=num_envs, num_actions=action_size)
+    with contextlib.redirect_stdout(io.StringIO()):     # rsl-rl prints the networks
+        return PPO.construct_algorithm(obs, env, algorithm_config(c), "cpu")
+
+
+def make_style(c, env):
+    """The AMP discriminator of a run (None for other tasks)."""
+    if c.task != "amp":
+        return None
+    from .amp import AMPStyle
+    return AMPStyle(env, task_weight=c.task_weight, style_weight=c.style_weight,
+                    hidden=c.disc_hidden, learning_rate=c.disc_learning_rate,
+                    batches=c.disc_batches, batch_size=c.disc_batch_size,
+                    gp_weight=c.gp_weight, replay_size=c.replay_size, seed=c.seed)
+
+
+class RolloutStats:
+    """What a rollout reports for the log: sums over its steps of the mean reward, of the
+    task's reward terms and of the style reward, and the returns and lengths (steps) of
+    the episodes that ended in it."""
+
+    def __init__(self, nterms):
+        self.steps = 0
+        self.parts = 1
+        self.reward = 0.0
+        self.style = 0.0
+        self.terms = np.zeros(nterms)
+        self.episode_returns = []
+        self.episode_steps = []
+
+    @classmethod
+    def merged(cls, parts):
+        """One RolloutStats of rollouts of the same steps on equally many worlds each: their
+        means averaged, their episodes pooled."""
+        out = cls(len(parts[0].terms))
+        k = len(parts)
+        out.steps, out.parts = parts[0].steps, k
+        out.reward = sum(p.reward for p in parts) / k
+        out.style = sum(p.style for p in parts) / k
+        out.terms = sum(p.terms for p in parts) / k
+        for p in parts:
+            out.episode_returns += p.episode_returns
+            out.episode_steps += p.episode_steps
+        return out
+
+
+def collect_rollout(alg, vec, style, steps, obs):
+    """``steps`` policy steps of every world of ``vec`` into ``alg``'s rollout storage
+    (the actions sampled by ``alg.act`` from torch's generator; the AMP reward mixed in by
+    ``style``). Returns the last observations and a RolloutStats."""
+    names = vec.env.reward_term_names
+    stats = RolloutStats(len(names))
+    with torch.inference_mode():
+        for _ in range(steps):
+            actions = alg.act(obs)
+            obs, reward, dones, extras = vec.step(actions)
+            info = vec.last_info
+            if style is not None:
+                reward = style.combine(reward, info["amp_obs"])
+                stats.style += style.last_style
+            alg.process_env_step(obs, reward, dones, extras)
+            stats.reward += float(reward.mean())
+            stats.terms += [extras["log"][f"/reward/{n}"] for n in names]
+            if "episode_return" in info:
+                done = info["done"]
+                stats.episode_returns.extend(info["episode_return"][done].tolist())
+                stats.episode_steps.extend(info["episode_steps"][done].tolist())
+    stats.steps = steps
+    return obs, stats
+
+
+def warm_up_observations(alg, vec, steps):
+    """The observations (steps N, D) of one rollout of the initial policy, for the
+    normalisers (see ``Trainer._warm_up_normalizers``)."""
+    alg.train_mode()
+    seen = []
+    with torch.inference_mode():
+        obs = vec.get_observations()
+        for _ in range(steps):
+            seen.append(obs["policy"].clone())
+            obs, _, _, _ = vec.step(alg.actor(obs, stochastic_output=True))
+    return torch.cat(seen).clone()
+
+
+def update_normalizers(alg, data):
+    """Fold observations (n, D) into the actor's and critic's normalisers."""
+    batch = TensorDict({"policy": data}, batch_size=[data.shape[0]])
+    alg.actor.update_normalization(batch)
+    alg.critic.update_normalization(batch)
+
+
 class Trainer:
     """A PPO training run in ``out_dir`` (see the module docs); ``run()`` trains,
     ``Trainer(out_dir, resume=True)`` picks a run up from its checkpoint."""
@@ -268,37 +388,7 @@ class Trainer:
         c = self.config
         torch.set_num_threads(c.threads)
         torch.manual_seed(c.seed)
-        self.env = _make_env(c, c.num_envs, seed=c.seed, episode_seconds=c.episode_seconds)
-        self.vec = _TorchVecEnv(self.env, self.env.max_episode_steps)
-        self.style = None
-        if c.task == "amp":
-            from .amp import AMPStyle
-            self.style = AMPStyle(self.env, task_weight=c.task_weight, style_weight=c.style_weight,
-                                  hidden=c.disc_hidden, learning_rate=c.disc_learning_rate,
-                                  batches=c.disc_batches, batch_size=c.disc_batch_size,
-                                  gp_weight=c.gp_weight, replay_size=c.replay_size, seed=c.seed)
-        cfg = {
-            "num_steps_per_env": c.steps_per_env, "obs_groups": {"actor": ["policy"],
-                                                                 "critic": ["policy"]},
-            "multi_gpu": None,
-            "algorithm": {"class_name": "PPO", "num_learning_epochs": c.epochs,
-                          "num_mini_batches": c.minibatches, "learning_rate": c.learning_rate,
-                          "schedule": "adaptive", "desired_kl": c.desired_kl, "gamma": c.gamma,
-                          "lam": c.lam, "clip_param": c.clip_param,
-                          "entropy_coef": c.entropy_coef, "max_grad_norm": 1.0,
-                          "value_loss_coef": 1.0, "use_clipped_value_loss": True},
-            "actor": {"class_name": "MLPModel", "hidden_dims": list(c.hidden),
-                      "activation": c.activation, "obs_normalization": True,
-                      "distribution_cfg": {"class_name": "GaussianDistribution",
-                                           "init_std": c.init_std}},
-            "critic": {"class_name": "MLPModel", "hidden_dims": list(c.hidden),
-                       "activation": c.activation, "obs_normalization": True},
-        }
-        obs = self.vec.get_observations()
-        import contextlib
-        import io
-        with contextlib.redirect_stdout(io.StringIO()):     # rsl-rl prints the networks
-            self.alg = PPO.construct_algorithm(obs, self.vec, cfg, "cpu")
+        self._make_sampler()
         self.iteration = 0
         self.samples = 0
         self.wall = 0.0
@@ -312,9 +402,10 @@ class Trainer:
             if self.style is not None:
                 self.style.load_state_dict(saved["style"])
             torch.set_rng_state(saved["torch_rng"])
-            self.env.rng.bit_generator.state = saved["env_rng"]
-            self.log(f"resumed {self.out_dir} at iteration {self.iteration} "
-                     f"({self.samples} samples, {self.wall / 3600:.2f} h)")
+            self._set_env_rng_state(saved["env_rng"])
+            if self.log:
+                self.log(f"resumed {self.out_dir} at iteration {self.iteration} "
+                         f"({self.samples} samples, {self.wall / 3600:.2f} h)")
         else:
             self._warm_up_normalizers()
         self._writer = None
@@ -324,22 +415,36 @@ class Trainer:
         except ImportError:
             pass
 
+    def _make_sampler(self):
+        """The worlds that collect the samples (here, in this process) and the learner."""
+        c = self.config
+        self.env = _make_env(c, c.num_envs, seed=c.seed, episode_seconds=c.episode_seconds)
+        self.vec = _TorchVecEnv(self.env, self.env.max_episode_steps)
+        self.style = make_style(c, self.env)
+        self.alg = make_algorithm(c, self.env.num_envs, self.env.observation_size,
+                                  self.env.action_size)
+
     def _warm_up_normalizers(self):
         """One rollout of the initial policy fills the observation normalisers before the
         first update: rsl-rl updates them after each update, so the first one would
         otherwise see raw observations (velocities of tens of rad/s) and take a step whose
         KL divergence is 50x the target, which the adaptive learning rate then pays for."""
-        self.alg.train_mode()
-        seen = []
+        update_normalizers(self.alg, warm_up_observations(self.alg, self.vec,
+                                                          self.config.steps_per_env))
+
+    def _collect(self):
+        """One rollout into the learner's storage and its returns; a RolloutStats."""
+        obs, stats = collect_rollout(self.alg, self.vec, self.style, self.config.steps_per_env,
+                                     self.vec.get_observations())
         with torch.inference_mode():
-            obs = self.vec.get_observations()
-            for _ in range(self.config.steps_per_env):
-                seen.append(obs["policy"].clone())
-                obs, _, _, _ = self.vec.step(self.alg.actor(obs, stochastic_output=True))
-        data = torch.cat(seen).clone()
-        batch = TensorDict({"policy": data}, batch_size=[data.shape[0]])
-        self.alg.actor.update_normalization(batch)
-        self.alg.critic.update_normalization(batch)
+            self.alg.compute_returns(obs)
+        return stats
+
+    def _env_rng_state(self):
+        return self.env.rng.bit_generator.state
+
+    def _set_env_rng_state(self, state):
+        self.env.rng.bit_generator.state = state
 
     def spec(self):
         s = self.env.spec()
@@ -356,7 +461,7 @@ class Trainer:
         """checkpoint.pt (atomically) and policy.npz."""
         state = {"alg": self.alg.save(), "iteration": self.iteration, "samples": self.samples,
                  "wall": self.wall, "best": self.best, "config": self.config.to_dict(),
-                 "torch_rng": torch.get_rng_state(), "env_rng": self.env.rng.bit_generator.state,
+                 "torch_rng": torch.get_rng_state(), "env_rng": self._env_rng_state(),
                  "spec": self.spec()}
         if self.style is not None:
             state["style"] = self.style.state_dict()
@@ -409,48 +514,32 @@ class Trainer:
                 bar = tqdm(total=total, initial=self.iteration, unit="it", dynamic_ncols=True)
             except ImportError:
                 bar = None
-        obs = self.vec.get_observations()
         self.alg.train_mode()
         last_eval = None
         ep_returns, ep_steps = [], []
+        names = self.env.reward_term_names
         while self.iteration < total:
             start = time.perf_counter()
-            names = self.env.reward_term_names
-            with torch.inference_mode():
-                terms = np.zeros(len(names))
-                rewards = style = 0.0
-                for _ in range(c.steps_per_env):
-                    actions = self.alg.act(obs)
-                    obs, reward, dones, extras = self.vec.step(actions)
-                    info = self.vec.last_info
-                    if self.style is not None:
-                        reward = self.style.combine(reward, info["amp_obs"])
-                        style += self.style.last_style
-                    self.alg.process_env_step(obs, reward, dones, extras)
-                    rewards += float(reward.mean())
-                    terms += [extras["log"][f"/reward/{n}"] for n in names]
-                    if "episode_return" in info:
-                        done = info["done"]
-                        ep_returns.extend(info["episode_return"][done].tolist())
-                        ep_steps.extend(info["episode_steps"][done].tolist())
-                collect = time.perf_counter() - start
-                self.alg.compute_returns(obs)
+            stats = self._collect()
+            ep_returns.extend(stats.episode_returns)
+            ep_steps.extend(stats.episode_steps)
+            collect = time.perf_counter() - start
             t1 = time.perf_counter()
             losses = self.alg.update()
             if self.style is not None:
                 losses.update(self.style.update())
             learn = time.perf_counter() - t1
-            n = c.steps_per_env * c.num_envs
+            n = c.steps_per_env * self.alg.storage.num_envs
             self.samples += n
             self.iteration += 1
             self.wall += time.perf_counter() - start
             row = {"iteration": self.iteration, "samples": self.samples,
                    "wall_hours": round(self.wall / 3600, 5),
-                   "reward": rewards / c.steps_per_env,
+                   "reward": stats.reward / c.steps_per_env,
                    "episode_return": float(np.mean(ep_returns[-200:])) if ep_returns else np.nan,
                    "episode_seconds": float(np.mean(ep_steps[-200:])) * self.env.dt if ep_steps else np.nan,
-                   **{f"r_{name}": terms[k] / c.steps_per_env for k, name in enumerate(names)},
-                   **({"r_style": style / c.steps_per_env} if self.style is not None else {}),
+                   **{f"r_{name}": stats.terms[k] / c.steps_per_env for k, name in enumerate(names)},
+                   **({"r_style": stats.style / c.steps_per_env} if self.style is not None else {}),
                    **{f"loss_{k}": float(v) for k, v in losses.items()},
                    "learning_rate": float(self.alg.learning_rate),
                    "action_std": float(self.alg.get_policy().output_std.detach().mean()),
