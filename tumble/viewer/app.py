@@ -648,6 +648,11 @@ class Viewer:
     def __exit__(self, *exc):
         self.close()
 
+    def _repr_html_(self):
+        # Jupyter embeds the viewer's page in the cell (tumble.viewer.notebook.viewer_html)
+        from .notebook import viewer_html
+        return viewer_html(self)
+
     def __repr__(self):
         kind = "live" if self.live else "recording"
         return f"<tumble.viewer.Viewer {kind} at {self.url}, frame {self._frame}/{self.nframes}>"

@@ -172,6 +172,27 @@ class Recording:
                    dt=float(arrays["dt"]), where=where,
                    **{k: arrays.get(k) for k in _OPTIONAL}, **contacts)
 
+    # -------------------------------------------------------------- notebooks
+    def animation(self, **kwargs):
+        """The recording as an animation for a notebook cell or an HTML page: a
+        :class:`~tumble.viewer.notebook.Animation` (keywords: ``format`` 'gif' or 'mp4',
+        ``fps``, ``size``, ``speed``, ``follow``, ``camera``, ...). Needs the ``viewer``
+        extra."""
+        from .notebook import Animation
+        return Animation(self, **kwargs)
+
+    def _repr_html_(self):
+        # Jupyter shows a recording as an animated GIF (tumble.viewer.notebook); without
+        # the viewer extra (matplotlib, imageio-ffmpeg) it falls back to the text repr.
+        try:
+            return self.animation().to_html()
+        except ImportError:
+            return None
+        except ModelError as exc:
+            if "imageio-ffmpeg" in str(exc):
+                return None
+            raise
+
     def __repr__(self):
         return (f"<tumble.Recording: {len(self)} frames, {self.scene.nbody} bodies, "
                 f"t = {self.time[0]:g}..{self.time[-1]:g} s>")

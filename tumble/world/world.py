@@ -489,6 +489,18 @@ class World(StateMixin, ControlMixin, QueryMixin):
             self._state.stage_ticks[:] = 0
         return {name: float(t) for name, t in zip(STAGES, totals)}
 
+    def _repr_png_(self):
+        """Jupyter shows a world as a picture of its bodies (``tumble.viewer.notebook``'s
+        ``world_png``: the software renderer, no display needed). The viewer sits above
+        World, so it is found by name when a notebook asks, never on import; without the
+        viewer extra the text repr is shown."""
+        import importlib
+        try:
+            notebook = importlib.import_module("tumble.viewer.notebook")
+            return notebook.world_png(self)
+        except ImportError:
+            return None
+
     def __repr__(self):
         return (f"<tumble.World: {self.model.nbody} bodies, dt={self.dt:g} s, t={self.time:g} s"
                 + (f", {self.nworld} worlds" if self.nworld > 1 else "") + ">")
