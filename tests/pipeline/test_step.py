@@ -106,3 +106,4 @@ def test_chunking_does_not_change_a_bit(contact):
                       "joint_q"):
             np.testing.assert_array_equal(getattr(worlds[0].state_arrays, field),
                                           getattr(other.state_arrays, field), err_msg=field)
+        assert other.time == worlds[0].time                     # the clock too, bit for bit

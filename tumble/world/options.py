@@ -16,9 +16,11 @@ from ..pipeline.actuators import PD_MODES
 from ..pipeline.arrays import (CONTACT_LCP, CONTACT_PENALTY, CONTACT_PGS, SOLVER_DIRECT,
                                SOLVER_PGS, StepOptions)
 from ..pipeline.contacts.penalty import default_penalty
-from ..pipeline.integrate import GYRO_EXPLICIT, GYRO_IMPLICIT, GYRO_NONE, QUAT_EXP, QUAT_LINEAR
+from ..pipeline.integrate import (GYRO_EXPLICIT, GYRO_IMPLICIT, GYRO_NONE, GYRO_VARIATIONAL,
+                                  QUAT_EXP, QUAT_LINEAR)
 
-GYROSCOPIC = {"implicit": GYRO_IMPLICIT, "explicit": GYRO_EXPLICIT, "none": GYRO_NONE}
+GYROSCOPIC = {"implicit": GYRO_IMPLICIT, "explicit": GYRO_EXPLICIT, "none": GYRO_NONE,
+              "variational": GYRO_VARIATIONAL}
 QUAT_INTEGRATION = {"exp": QUAT_EXP, "linear": QUAT_LINEAR}
 CONTACT_MODELS = {"lcp": CONTACT_LCP, "pgs": CONTACT_PGS, "penalty": CONTACT_PENALTY}
 SOLVERS = {"direct": SOLVER_DIRECT, "pgs": SOLVER_PGS}
@@ -89,8 +91,9 @@ class Options:
 
     dt : step in seconds.
     contact : 'lcp', 'pgs' or 'penalty' (the contact model; see the contact docs).
-    gyroscopic : 'implicit' (default), 'explicit' or 'none': how ``w x I w`` enters the
-        step; see ``tumble.pipeline.integrate``.
+    gyroscopic : 'implicit' (default), 'variational', 'explicit' or 'none': how ``w x I w``
+        enters the step; see ``tumble.pipeline.integrate``. 'variational' keeps a free
+        body's angular momentum to round-off (with quat_integration 'exp' only).
     quat_integration : 'exp' (default; exact for a constant angular velocity) or
         'linear' (the lecture's ``q + h/2 (w, 0) q``, normalised).
     divergence_limit : a position or speed beyond this (m, m/s, rad/s) is a divergence.
@@ -178,6 +181,9 @@ def step_options(options, lightest_mass, gravity_norm):
     colliding bodies sets the default penalty contact, ``gravity_norm`` (m/s^2) the
     default slip velocity."""
     o = options
+    if o.gyroscopic == "variational" and o.quat_integration != "exp":
+        raise ModelError("world: gyroscopic='variational' needs quat_integration='exp' (its "
+                         f"rotations are exponential maps), got {o.quat_integration!r}")
     k, c = penalty_parameters(o, lightest_mass)
     v_slip = o.slip_velocity or max(gravity_norm * o.dt, 1e-3)
     return StepOptions(

@@ -13,6 +13,7 @@ from ..math.quat import quat_rotate, quat_rotate_inv
 from ..math.quat_np import qmatrix
 from ..model.types import DYNAMIC
 from ..model.validate import positive
+from ..pipeline.integrate import variational_spin_momenta
 from ..pipeline.joints.common import joint_frames
 from ..pipeline.queries import contact_wrenches, distance_between, raycast_scene
 
@@ -211,12 +212,20 @@ class QueryMixin:
     def angular_momentum(self, about=(0.0, 0.0, 0.0)):
         """Total angular momentum (kg m^2/s, world) about the world point ``about``.
 
-        Sum over dynamic bodies of ``(x - about) x m v + I_w w``: (3,) or (nworld, 3).
+        Sum over dynamic bodies of ``(x - about) x m v + I_w w``: (3,) or (nworld, 3). With
+        ``gyroscopic='variational'`` the spin part is the discrete momentum that scheme
+        conserves (``tumble.pipeline.integrate.variational_spin_momenta``).
         """
         s = self._state
         mass = np.where(self._dynamic(), self.model.body_mass, 0.0)
         r = s.body_pos - np.asarray(about, float)
         orbital = np.einsum("b,wbi->wbi", mass, np.cross(r, s.body_vel))
-        spin = np.einsum("wbij,wbj->wbi", self._world_inertia(s.body_quat), s.body_angvel)
+        if self.options.gyroscopic == "variational":
+            # the momentum the variational step keeps: I w differs from it by O(h^2)
+            spin = np.empty_like(s.body_angvel)
+            variational_spin_momenta(self.model.body_inertia, s.body_quat, s.body_angvel,
+                                     float(self.options.dt), spin)
+        else:
+            spin = np.einsum("wbij,wbj->wbi", self._world_inertia(s.body_quat), s.body_angvel)
         return self._view((orbital + spin).sum(axis=1))
 

@@ -125,6 +125,7 @@ class World(StateMixin, ControlMixin, QueryMixin):
                                     & (model.body_kind == DYNAMIC)]
         self._lightest_colliding_mass = float(colliding.min()) if colliding.size else 1.0
         self._gravity_norm = float(np.linalg.norm(model.gravity))
+        self.step_options()        # the checks across options, before anything is made
         self._state = make_state_arrays(self.nworld, model.nbody, model.njoint, model.nrow)
         self._control = make_control_arrays(self.nworld, model.nbody, model.njoint,
                                             model.nactuator)
@@ -366,7 +367,11 @@ class World(StateMixin, ControlMixin, QueryMixin):
                 f"{k} of this call (t = {t:.6g} s, dt = {self.dt:g} s); the world is left as it "
                 f"was before the call. Try a smaller dt or check the forces applied.",
                 body=self.model.body_names[i], step=int(k), time=t, world=int(w))
-        self.time += n * self.dt
+        # added step by step, so that step(n) and n x step(1) end at the same time bits
+        t, dt = self.time, self.dt
+        for _ in range(n):
+            t += dt
+        self.time = t
 
     def _call_serial(self, n, o):
         """``call.step_boxed`` on the arrays held in ``self._box`` (one object to hand over
