@@ -76,7 +76,9 @@ def main():
         lambda out: Trainer(out, config(2), progress=False, log=None), args.iterations)
     for k in (1, 2):
         results[f"ray{k}"] = _timed_run(
-            lambda out: RayTrainer(out, config(1), workers=k, progress=False, log=None),
+            # the learner's PyTorch uses both cores for the update (the workers wait then);
+            # each worker has one CPU for Numba and PyTorch (worker_cpus)
+            lambda out: RayTrainer(out, config(2), workers=k, progress=False, log=None),
             args.iterations)
     for name, r in results.items():
         print(f"{name:7s} {r['samples_per_s']:8.0f} samples/s end to end, collection "
