@@ -148,24 +148,20 @@ class SimbiconController:
         m = world.model
         self.model = m
         if ragdoll.model is not m:
-            raise ModelError("SimbiconController: the world is not of the ragdoll's model")
-        self.gait = load_gait(gait)
-        if speed is not None or turn_rate is not None:
-            self.gait = self.gait.with_(
-                speed=self.gait.speed if speed is None else float(speed),
-                turn_rate=self.gait.turn_rate if turn_rate is None else float(turn_rate))
+            raise ModelError(f"{type(self).__name__}: the world is not of the ragdoll's model")
+        self.gait = self._load_gait(gait, speed, turn_rate)
         if hip_control not in ("implicit", "rule", "explicit"):
-            raise ModelError(f"SimbiconController: hip_control must be 'implicit', 'rule' or "
+            raise ModelError(f"{type(self).__name__}: hip_control must be 'implicit', 'rule' or "
                              f"'explicit', got {hip_control!r}")
         self.hip_control = hip_control
-        positive(control_dt, "SimbiconController", "control_dt")
+        positive(control_dt, type(self).__name__, "control_dt")
         n = control_dt / world.dt
         if abs(n - round(n)) > 1e-6 * max(n, 1.0) or round(n) < 1:
-            raise ModelError(f"SimbiconController: control_dt ({control_dt:g} s) must be a whole "
+            raise ModelError(f"{type(self).__name__}: control_dt ({control_dt:g} s) must be a whole "
                              f"number of physics steps (world.dt = {world.dt:g} s)")
         self.substeps = int(round(n))
         self.control_dt = self.substeps * world.dt
-        self.fall_height = positive(fall_height, "SimbiconController", "fall_height")
+        self.fall_height = positive(fall_height, type(self).__name__, "fall_height")
         from .terrain import Flat
         self.terrain = Flat() if terrain is None else terrain
         self.biped = biped or BipedMap()
@@ -173,6 +169,14 @@ class SimbiconController:
         self.reset()
 
     # ------------------------------------------------------------------ set up
+    def _load_gait(self, gait, speed, turn_rate):
+        """The Gait to walk (``load_gait``) with the speed and turn rate overridden."""
+        g = load_gait(gait)
+        if speed is not None or turn_rate is not None:
+            g = g.with_(speed=g.speed if speed is None else float(speed),
+                        turn_rate=g.turn_rate if turn_rate is None else float(turn_rate))
+        return g
+
     def _map_joints(self):
         m, b = self.model, self.biped
         self.up = np.asarray(b.up, float) / np.linalg.norm(b.up)
@@ -187,7 +191,7 @@ class SimbiconController:
             try:
                 return m.joint_index(name)
             except ModelError:
-                raise ModelError(f"SimbiconController: biped map: {what} joint '{name}' is not "
+                raise ModelError(f"{type(self).__name__}: biped map: {what} joint '{name}' is not "
                                  f"a joint of the model") from None
 
         self.pelvis = m.body_index(b.pelvis)
@@ -203,7 +207,7 @@ class SimbiconController:
         self.wrist = [j(n, "wrist") for n in b.wrist]
         for s in range(2):
             if m.joint_parent[self.hip[s]] != self.pelvis:
-                raise ModelError(f"SimbiconController: hip joint '{b.hip[s]}' does not hang "
+                raise ModelError(f"{type(self).__name__}: hip joint '{b.hip[s]}' does not hang "
                                  f"from the pelvis '{b.pelvis}'")
         self.thigh = [int(m.joint_child[self.hip[s]]) for s in range(2)]
         self.foot = [int(m.joint_child[self.ankle[s]]) for s in range(2)]
