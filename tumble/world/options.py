@@ -117,7 +117,9 @@ class Options:
         from the lightest colliding body (see ``tumble.pipeline.contacts.penalty``). Geoms
         given their own ``stiffness``/``damping`` (``ModelBuilder.add_geom``) override them
         for their pairs.
-    slip_velocity : penalty friction's regularisation speed (m/s); default (None) ``|g| dt``.
+    slip_velocity : None (default): penalty friction is a stick spring that holds below
+        the friction angle; a speed (m/s): the regularised Coulomb law of that speed
+        instead (see ``tumble.pipeline.contacts.penalty``).
     contact_margin : contacts are found this far apart (m) so the solver stops a fast body
         at the surface instead of pushing it out afterwards (penalty ignores the gap).
     pd : how joint PD servos act: 'implicit' (default; a soft constraint row solved with
@@ -176,16 +178,15 @@ def penalty_parameters(options, lightest_mass):
             c if options.penalty_damping is None else options.penalty_damping)
 
 
-def step_options(options, lightest_mass, gravity_norm):
+def step_options(options, lightest_mass):
     """The compiled step's ``StepOptions`` for ``options``; ``lightest_mass`` (kg) of the
-    colliding bodies sets the default penalty contact, ``gravity_norm`` (m/s^2) the
-    default slip velocity."""
+    colliding bodies sets the default penalty contact."""
     o = options
     if o.gyroscopic == "variational" and o.quat_integration != "exp":
         raise ModelError("world: gyroscopic='variational' needs quat_integration='exp' (its "
                          f"rotations are exponential maps), got {o.quat_integration!r}")
     k, c = penalty_parameters(o, lightest_mass)
-    v_slip = o.slip_velocity or max(gravity_norm * o.dt, 1e-3)
+    v_slip = o.slip_velocity or 0.0          # 0: the stick-spring friction
     return StepOptions(
         float(o.dt), GYROSCOPIC[o.gyroscopic], QUAT_INTEGRATION[o.quat_integration],
         float(o.divergence_limit), float(o.erp), float(o.cfm), SOLVERS[o.solver],

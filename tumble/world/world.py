@@ -124,7 +124,6 @@ class World(StateMixin, ControlMixin, QueryMixin):
         colliding = model.body_mass[np.isin(np.arange(model.nbody), model.geom_body)
                                     & (model.body_kind == DYNAMIC)]
         self._lightest_colliding_mass = float(colliding.min()) if colliding.size else 1.0
-        self._gravity_norm = float(np.linalg.norm(model.gravity))
         self.step_options()        # the checks across options, before anything is made
         self._state = make_state_arrays(self.nworld, model.nbody, model.njoint, model.nrow)
         self._control = make_control_arrays(self.nworld, model.nbody, model.njoint,
@@ -455,7 +454,7 @@ class World(StateMixin, ControlMixin, QueryMixin):
     def step_options(self):
         """The compiled step's ``StepOptions`` (``pipeline.arrays``) for the current options:
         what a pipeline kernel called directly takes."""
-        return step_options(self.options, self._lightest_colliding_mass, self._gravity_norm)
+        return step_options(self.options, self._lightest_colliding_mass)
 
     def penalty_parameters(self):
         """(stiffness N/m, damping N s/m) of penalty contacts at the current dt."""

@@ -50,14 +50,46 @@ def test_box_slides_down_an_incline_at_the_coulomb_rate(contact):
     assert accel == pytest.approx(G * (np.sin(theta) - mu * np.cos(theta)), rel=0.02)
 
 
-@pytest.mark.parametrize("contact", ["lcp", "pgs"])
+@pytest.mark.parametrize("contact", MODELS)
 def test_box_sticks_just_below_the_friction_threshold(contact):
     mu = 0.5
     theta = np.arctan(mu * 0.9)
     w = box_on_plane(contact, normal=(np.sin(theta), 0.0, np.cos(theta)), mu=mu)
+    w.step(24)                # penalty's springs settle first (0.7 mm in, 0.3 mm along)
     start = w.body_pos[0].copy()
     w.step(480)                                       # 2 s
     assert np.linalg.norm(w.body_pos[0] - start) < 1e-3
+
+
+def test_penalty_static_friction_holds_for_10_s():
+    """30 degrees, mu 0.7 > tan 30: penalty's stick spring holds the box within the
+    spring's stretch (under 1 mm in 10 s; the regularised law creeps tens of cm)."""
+    theta = np.radians(30.0)
+    results = {}
+    for slip in (None, G / 240):
+        w = box_on_plane("penalty", normal=(np.sin(theta), 0.0, np.cos(theta)), mu=0.7,
+                         slip_velocity=slip)
+        w.step(24)
+        start = w.body_pos[0].copy()
+        w.step(2400)
+        results[slip] = np.linalg.norm(w.body_pos[0] - start)
+    assert results[None] < 1e-3, results
+    assert results[G / 240] > 0.05, results                   # the lecture's law creeps
+
+
+def test_penalty_stack_of_ten_boxes_stands_with_the_defaults():
+    """The bench's stack at 1/240 s, 20 s: it stands, compressed like ten springs in
+    series: box i sinks sum_{j <= i} (n - j) m g / (4 k), k = m / (16 h^2)."""
+    w = tumble.World(benchmarks.stack(), contact="penalty")
+    p0 = w.body_pos.copy()
+    w.step(4800)
+    n, h = w.model.nbody, w.dt
+    k = 1.0 / (16 * h * h) * benchmarks.STACK["mass"]
+    load = np.arange(n, 0, -1) * benchmarks.STACK["mass"] * G      # on each box's contacts
+    sink = np.cumsum(load / (4 * k))
+    np.testing.assert_allclose(p0[:, 2] - w.body_pos[:, 2], sink, rtol=0.05, atol=5e-4)
+    assert np.abs(w.body_pos[:, :2] - p0[:, :2]).max() < 0.01     # no sideways drift
+    assert np.abs(w.body_vel).max() < 1e-3
 
 
 @pytest.mark.parametrize("contact", ["lcp", "pgs"])

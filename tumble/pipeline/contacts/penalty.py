@@ -1,19 +1,32 @@
 """Penalty contacts: springs and dampers at the contact points, added to the forces.
 
 Normal force ``f_n = k d - c v_n`` (d penetration, v_n approach speed positive apart),
-never pulling; Coulomb friction regularised as ``f_t = -mu f_n v_t / max(|v_t|, v_slip)``
-so it is capped by ``mu f_n`` and smooth near rest (bodies creep at up to ``v_slip``
-times the ratio of pull to friction instead of sticking exactly).
+never pulling. Friction, by default, is a stick spring of the same stiffness and damping
+in the tangent plane (an elastoplastic, Dahl-like model): each contact's elastic force
+``s`` is carried from step to step by the matched contact's impulse and grows by
+``-k h v_t``; the force is ``s - c v_t``, and beyond ``mu f_n`` the contact slides at
+exactly ``mu f_n`` with the spring holding that. So static friction holds (a box below
+the friction angle stops within the spring's stretch) and sliding is Coulomb's. With a
+``v_slip`` (the ``slip_velocity`` option), friction is instead the lecture's regularised
+Coulomb ``f_t = -mu f_n v_t / max(|v_t|, v_slip)``: smooth and memoryless, but bodies
+creep at up to ``v_slip`` times the ratio of pull to friction instead of sticking.
 
 Stability rule used for the defaults (``default_penalty``): the lightest body m resting
 on four contacts (a box face) feels ``K = 4k`` and ``C = 4c``. Semi-implicit Euler
-needs ``w h < 2`` with ``w = sqrt(K/m)`` and ``C h / m < 2``; we take ``w h = 0.5``
-and critical damping ``C = 2 sqrt(K m)`` (so ``C h / m = 1``): ``k = m / (16 h^2)``,
-``c = m / (4 h)``. A box resting on four contacts sinks ``m g / K = 4 g h^2``: 0.7 mm at
-240 Hz; a sphere on one contact four times that. A pair of geoms with their own
-stiffness or damping (``ModelBuilder.add_geom``, combined by ``pairs.pair_softness``)
-uses those instead; the same rule bounds what is stable: ``k <= m / (16 h^2)`` for a
-body of mass m on four such contacts (``sqrt(k / m) h <= 1/4``).
+needs ``w h < 2`` with ``w = sqrt(K/m)`` and ``C h / m_eff < 2`` for the stiffest, least
+massive mode; we take ``w h = 0.5``, so ``k = m / (16 h^2)``, and ``c = m / (16 h)``: a
+quarter of critical damping for the box bouncing on its face, because the rocking modes
+see a corner's effective mass (a cube's is m / 4: ``1 / m + (r x n) . I^-1 (r x n)``)
+and a box in a stack is damped from above and below, and critical damping for the bounce
+(``c = m / (4 h)``, what tumble used before) is past the explicit limit for those: the
+10-box stack at 1/240 s flew apart. A box resting on four contacts sinks
+``m g / K = 4 g h^2``: 0.7 mm at 240 Hz; a sphere on one contact four times that; a stack
+compresses like springs in series (the 10-box stack by 37 mm at 240 Hz). A pair of geoms
+with their own stiffness or damping (``ModelBuilder.add_geom``, combined by
+``pairs.pair_softness``) uses those instead; the same rule bounds what is stable:
+``k <= m / (16 h^2)`` for a body of mass m on four such contacts. Not every scene is
+stable with them: the 210-box pyramid, whose boxes straddle gaps and rock on two
+neighbours' edges, still spreads apart with penalty contacts; use 'lcp' or 'pgs' there.
 
 Spin friction (torsional about the normal, rolling about the tangents; ``mu_t``, ``mu_r``
 lengths in m) is the same regularised law on the relative angular velocity:
@@ -39,7 +52,7 @@ _W_FLOOR = 1e-9
 
 def default_penalty(lightest_mass, h):
     """(k, c) for the lightest colliding body at step ``h`` (see the module docstring)."""
-    return lightest_mass / (16.0 * h * h), lightest_mass / (4.0 * h)
+    return lightest_mass / (16.0 * h * h), lightest_mass / (16.0 * h)
 
 
 @njit(cache=True, inline="always")
@@ -92,14 +105,31 @@ def penalty_forces(m, pos, quat, vel, angvel, con, count, k, c, v_slip, h, spin_
         rel = relative_velocity(vel, angvel, a, b, r_a, r_b)
         vn = rel[0] * n[0] + rel[1] * n[1] + rel[2] * n[2]
         fn = max(kp * d - cp * vn, 0.0)
-        vt = (rel[0] - vn * n[0], rel[1] - vn * n[1], rel[2] - vn * n[2])
-        speed = math.sqrt(vt[0] * vt[0] + vt[1] * vt[1] + vt[2] * vt[2])
-        ft = con.friction[i] * fn / max(speed, v_slip)
-        f = (fn * n[0] - ft * vt[0], fn * n[1] - ft * vt[1], fn * n[2] - ft * vt[2])
         t1, t2 = tangents(n)
+        v1 = rel[0] * t1[0] + rel[1] * t1[1] + rel[2] * t1[2]
+        v2 = rel[0] * t2[0] + rel[1] * t2[1] + rel[2] * t2[2]
+        cap = con.friction[i] * fn
+        if v_slip > 0.0:
+            # regularised Coulomb: a damper up to v_slip, mu f_n beyond
+            speed = math.sqrt(v1 * v1 + v2 * v2)
+            f1, f2 = -cap * v1 / max(speed, v_slip), -cap * v2 / max(speed, v_slip)
+            s1, s2 = f1, f2
+        else:
+            # stick spring: last step's elastic force (carried by the matched contact's
+            # impulse; 0 for a new contact) stretched by this step's slip, plus damping;
+            # beyond mu f_n it slides and the spring holds only what is transmitted
+            s1 = con.impulse[i, 1] / h - kp * h * v1
+            s2 = con.impulse[i, 2] / h - kp * h * v2
+            f1, f2 = s1 - cp * v1, s2 - cp * v2
+            mag = math.sqrt(f1 * f1 + f2 * f2)
+            if mag > cap:
+                f1, f2 = f1 * cap / mag, f2 * cap / mag
+                s1, s2 = f1, f2
+        f = (fn * n[0] + f1 * t1[0] + f2 * t2[0], fn * n[1] + f1 * t1[1] + f2 * t2[1],
+             fn * n[2] + f1 * t1[2] + f2 * t2[2])
         con.impulse[i, 0] = fn * h
-        con.impulse[i, 1] = h * (f[0] * t1[0] + f[1] * t1[1] + f[2] * t1[2])
-        con.impulse[i, 2] = h * (f[0] * t2[0] + f[1] * t2[1] + f[2] * t2[2])
+        con.impulse[i, 1] = h * s1
+        con.impulse[i, 2] = h * s2
         for side in range(2):
             body = b if side == 0 else a
             if body < 0:
