@@ -9,6 +9,7 @@ play`` needs neither PyTorch nor the learning library; :meth:`Policy.check` refu
 environment the policy was not trained for, naming what differs.
 """
 import json
+import os
 from pathlib import Path
 
 import numpy as np
@@ -102,13 +103,21 @@ class Policy:
             raise ModelError("policy: trained for another setting; " + "; ".join(diffs))
 
     def save(self, path):
-        """Write the policy to ``path`` (.npz)."""
+        """Write the policy to ``path`` (.npz, added if missing), atomically."""
         arrays = {f"w{k}": w for k, w in enumerate(self.weights)}
         arrays.update({f"b{k}": b for k, b in enumerate(self.biases)})
         meta = {"format": POLICY_FORMAT, "activation": self.activation, "obs_eps": self.obs_eps,
                 "layers": len(self.weights), "spec": self.spec, "info": self.info}
-        np.savez_compressed(path, obs_mean=self.obs_mean, obs_std=self.obs_std,
-                            meta=np.array(json.dumps(meta)), **arrays)
+        # written beside and renamed: a reader (tumble play during training) or a kill
+        # mid-write never sees half a file
+        path = Path(path)
+        if path.suffix != ".npz":            # as np.savez names it
+            path = path.with_name(path.name + ".npz")
+        tmp = path.with_name(path.name + ".tmp")
+        with open(tmp, "wb") as f:
+            np.savez_compressed(f, obs_mean=self.obs_mean, obs_std=self.obs_std,
+                                meta=np.array(json.dumps(meta)), **arrays)
+        os.replace(tmp, path)
 
     @classmethod
     def load(cls, path):
