@@ -223,6 +223,31 @@ class Style:
         return replace(self, **changes)
 
 
+def _gains_and_limits(r, data):
+    """The ``gains`` ({group: (kp, kd)}) and ``max_torque`` ({group: N m}, default inf) of
+    a gait or style file, every joint group named and checked (``r``: the file's reader)."""
+    gains_in = data.get("gains")
+    if not isinstance(gains_in, dict):
+        r.fail("gains", "must be an object {group: [kp, kd]}")
+    gains = {}
+    for g in _GROUPS:
+        kp, kd = r.pair(gains_in, g, "gains.")
+        if kp < 0 or kd < 0:
+            r.fail(f"gains.{g}", f"gains must be >= 0, got {[kp, kd]}")
+        gains[g] = (kp, kd)
+    for k in gains_in:
+        if k not in _GROUPS:
+            r.fail(f"gains.{k}", f"is not a joint group (groups: {list(_GROUPS)})")
+    lim_in = data.get("max_torque", {})
+    if not isinstance(lim_in, dict):
+        r.fail("max_torque", "must be an object {group: N m}")
+    limits = {g: r.number(lim_in, g, "max_torque.", default=math.inf, lo=1e-9) for g in _GROUPS}
+    for k in lim_in:
+        if k not in _GROUPS:
+            r.fail(f"max_torque.{k}", f"is not a joint group (groups: {list(_GROUPS)})")
+    return gains, limits
+
+
 def _shipped(controller):
     """Names of the shipped JSON files in gaits/ whose "controller" is ``controller``
     (files without the field are SIMBICON gaits)."""
@@ -349,27 +374,7 @@ def _parse_gait(data, source, text):
             torso=r.pair(s, "torso", where, default=(0.0, 0.0)),
             c_d=r.pair(s, "c_d", where, default=(0.0, 0.0)),
             c_v=r.pair(s, "c_v", where, default=(0.0, 0.0))))
-    gains_in = data.get("gains")
-    if not isinstance(gains_in, dict):
-        r.fail("gains", "must be an object {group: [kp, kd]}")
-    gains = {}
-    for g in _GROUPS:
-        kp, kd = r.pair(gains_in, g, "gains.")
-        if kp < 0 or kd < 0:
-            r.fail(f"gains.{g}", f"gains must be >= 0, got {[kp, kd]}")
-        gains[g] = (kp, kd)
-    for k in gains_in:
-        if k not in _GROUPS:
-            r.fail(f"gains.{k}", f"is not a joint group (groups: {list(_GROUPS)})")
-    lim_in = data.get("max_torque", {})
-    if not isinstance(lim_in, dict):
-        r.fail("max_torque", "must be an object {group: N m}")
-    limits = {}
-    for g in _GROUPS:
-        limits[g] = r.number(lim_in, g, "max_torque.", default=math.inf, lo=1e-9)
-    for k in lim_in:
-        if k not in _GROUPS:
-            r.fail(f"max_torque.{k}", f"is not a joint group (groups: {list(_GROUPS)})")
+    gains, limits = _gains_and_limits(r, data)
     name = data.get("name", Path(str(source)).stem)
     if not isinstance(name, str):
         r.fail("name", "must be a string")
@@ -456,25 +461,7 @@ def _parse_style(data, source, text):
     for k in data:
         if k not in known:
             r.fail(k, f"is not a style field (known: {sorted(known)})")
-    gains_in = data.get("gains")
-    if not isinstance(gains_in, dict):
-        r.fail("gains", "must be an object {group: [kp, kd]}")
-    gains = {}
-    for g in _GROUPS:
-        kp, kd = r.pair(gains_in, g, "gains.")
-        if kp < 0 or kd < 0:
-            r.fail(f"gains.{g}", f"gains must be >= 0, got {[kp, kd]}")
-        gains[g] = (kp, kd)
-    for k in gains_in:
-        if k not in _GROUPS:
-            r.fail(f"gains.{k}", f"is not a joint group (groups: {list(_GROUPS)})")
-    lim_in = data.get("max_torque", {})
-    if not isinstance(lim_in, dict):
-        r.fail("max_torque", "must be an object {group: N m}")
-    limits = {g: r.number(lim_in, g, "max_torque.", default=math.inf, lo=1e-9) for g in _GROUPS}
-    for k in lim_in:
-        if k not in _GROUPS:
-            r.fail(f"max_torque.{k}", f"is not a joint group (groups: {list(_GROUPS)})")
+    gains, limits = _gains_and_limits(r, data)
     name = data.get("name", Path(str(source)).stem)
     if not isinstance(name, str):
         r.fail("name", "must be a string")
