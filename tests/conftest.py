@@ -7,7 +7,18 @@ files that never step a world, and by the time it needs the step, much of it is 
 cache the first worker writes. Without pytest-xdist the marks and the order change nothing
 but the order.
 """
+import os
+from pathlib import Path
+
 import pytest
+
+# Subprocesses the tests start (notebook kernels, the CLI, examples, Ray workers) import
+# tumble from this checkout, as the tests do, not from an installed copy: one source tree,
+# one Numba cache. (CI installs the package non-editable; a second tree in site-packages
+# compiled every kernel again, 13 CPU minutes.)
+_ROOT = str(Path(__file__).resolve().parents[1])
+os.environ["PYTHONPATH"] = os.pathsep.join(
+    [_ROOT] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p and p != _ROOT])
 
 # Runs first: many tests, the first of which compiles the serial step, then the batched one.
 FIRST = "tests/world/test_world.py"
