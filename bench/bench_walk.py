@@ -46,9 +46,9 @@ import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "examples"))
 from walk import PUSH_BODY, make_controller, make_terrain  # noqa: E402
-from walk_generalized import make_generalized  # noqa: E402
 
 from tumble.character import Push  # noqa: E402
+from tumble.character.generalized import make_generalized  # noqa: E402
 from tumble.character.terrain import Heightfield, Slope  # noqa: E402
 from tumble.character.walk import run_walk  # noqa: E402
 

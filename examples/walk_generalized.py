@@ -23,22 +23,11 @@ import numpy as np
 import tumble
 from tumble.character import Push
 from tumble.character.gait_files import style_names
-from tumble.character.generalized import GeneralizedController
+from tumble.character.generalized import make_generalized
 from tumble.character.walk import run_walk
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from walk import PUSH_BODY, TERRAINS, make_terrain  # noqa: E402
-
-
-def make_generalized(style="ipm_walk", terrain=None, *, dt=1 / 60, control_dt=1 / 60,
-                     contact="pgs", speed=None, side_speed=None, turn_rate=None):
-    """The course character on ``terrain`` in a World of physics step ``dt``, walked by a
-    GeneralizedController at ``control_dt``."""
-    terrain = make_terrain("flat") if terrain is None else terrain
-    rd = tumble.games105_ragdoll(root="floating", terrain=terrain)
-    world = rd.make_world(dt=dt, contact=contact)
-    return GeneralizedController(world, rd, style, control_dt=control_dt, terrain=terrain,
-                                 speed=speed, side_speed=side_speed, turn_rate=turn_rate)
 
 
 def main():
