@@ -11,8 +11,8 @@ import sys
 
 def _demo(args):
     from .apps import racket
-    print("(the first run compiles tumble's kernels: several minutes on 2 cores (up to 9 seen); "
-          "later runs start at once)", flush=True)
+    print("(the first run compiles the few kernels a free body needs: about 20 s; later runs "
+          "start at once)", flush=True)
     times, omegas, summary = racket.run(seconds=args.seconds)
     if args.plot:
         racket.plot(times, omegas, args.plot)
@@ -163,6 +163,8 @@ def _train(args):
                                    ("eval_every", args.eval_every), ("seed", args.seed))
                  if v is not None}
         if args.task == "amp":
+            if args.init_from:
+                given.update(init_from=args.init_from, critic_warmup=20)
             config = TrainConfig.for_task("amp", clips=clips, **given)
         else:
             config = TrainConfig.for_task("imitate", clip=clip, **given)
@@ -337,6 +339,10 @@ def main(argv=None):
                      help="course clip names (walk, run, idle) or BVH paths "
                           "(default: walk run idle)")
     _run_options(amp, "amp-CLIPS (runs/amp-walk-run-idle)", envs=256)
+    amp.add_argument("--init-from", metavar="POLICY",
+                     help="start from an imitation policy (a file or a shipped name: 'walk'), "
+                          "behaviour-cloned into the steering actor; the first 20 iterations "
+                          "then train only the critic")
     amp.set_defaults(func=_train)
 
     play = sub.add_parser("play", help="a trained policy in the browser viewer (needs "

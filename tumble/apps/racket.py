@@ -20,6 +20,12 @@ def build(spin=np.pi, perturbation=0.01, density=500.0):
     return tumble.World(b.build(), dt=1.0 / 240.0)
 
 
+def _row(t, w_b, spin):
+    """One printed line: time, body-frame angular velocity and a bar of its y part."""
+    bar = "#" * int(round(10 * (w_b[1] / spin + 1)))
+    return f"  {t:7.2f} {w_b[0]:8.3f} {w_b[1]:8.3f} {w_b[2]:8.3f}   {bar}"
+
+
 def run(seconds=20.0, spin=np.pi, print_every=0.5, out=print):
     """Simulate; return times (T,), body-frame angular velocities (T, 3) and a summary dict."""
     world = build(spin)
@@ -27,10 +33,11 @@ def run(seconds=20.0, spin=np.pi, print_every=0.5, out=print):
     E0 = world.energy()[0]
     steps_per_sample = max(1, int(round(0.05 / world.dt)))
     times, omegas = [0.0], [world.vector_to_body(0, world.body_angvel[0])]
-    next_print = 0.0
+    next_print = print_every
     flips, last_sign = 0, 1.0
     if out:
         out("    t (s)    w_x      w_y      w_z   (rad/s, body frame; y is the middle axis)")
+        out(_row(0.0, omegas[0], spin))
     while world.time < seconds - 1e-9:
         world.step(steps_per_sample)
         w_b = world.vector_to_body(0, world.body_angvel[0])
@@ -40,8 +47,7 @@ def run(seconds=20.0, spin=np.pi, print_every=0.5, out=print):
             flips += 1
             last_sign = np.sign(w_b[1])
         if out and world.time >= next_print - 1e-9:
-            bar = "#" * int(round(10 * (w_b[1] / spin + 1)))
-            out(f"  {world.time:7.2f} {w_b[0]:8.3f} {w_b[1]:8.3f} {w_b[2]:8.3f}   {bar}")
+            out(_row(world.time, w_b, spin))
             next_print += print_every
     dL = np.linalg.norm(world.angular_momentum() - L0) / np.linalg.norm(L0)
     dE = abs(world.energy()[0] - E0) / E0

@@ -23,6 +23,7 @@ from ..pipeline.checks import (DRIVE_BAD_MAX, DRIVE_FIELDS, DRIVE_ZERO_BODY_QUAT
                                STATE_NONFINITE_VEL, STATE_ZERO_QUAT)
 from ..pipeline.contacts.arrays import make_contacts
 from ..pipeline.joints.rows import joint_coordinates
+from ..pipeline.step_free import box_free_args, is_free, step_free_boxed
 from ..pipeline.step import STEP_DIVERGED, STEP_MORE_CONTACTS, STEP_MORE_PAIRS
 from ..pipeline.work import make_step_work
 from .control import ControlMixin
@@ -136,6 +137,8 @@ class World(StateMixin, ControlMixin, QueryMixin):
                                np.int32)
         self._work = None          # scratch of the serial step, kept between calls
         self._entry = None         # step_boxed's compiled entry point, once called
+        self._free_entry = None    # step_free_boxed's, once called (a free model)
+        self._free_box = None      # step_free.box_free_args of the arrays, once made
         self._tick_seconds = None  # _jit.ticks' unit, measured on the first stage_times
         self.reset()
         self._prepare_step()
@@ -201,6 +204,8 @@ class World(StateMixin, ControlMixin, QueryMixin):
         self._update_joint_coordinates()
 
     def _update_joint_coordinates(self, worlds=None):
+        if self.model.njoint == 0:        # nothing to compute (nor to compile)
+            return
         s = self._state
         for w in range(self.nworld) if worlds is None else worlds:
             joint_coordinates(self.model.arrays, s.body_pos[w], s.body_quat[w], s.body_vel[w],
@@ -343,7 +348,9 @@ class World(StateMixin, ControlMixin, QueryMixin):
         n = int(n)
         o = self.step_options()
         while True:
-            if self.parallel:
+            if is_free(self.model, self._control.body_servo):
+                stage, code, w, i, k, needed = self._call_free(n, o)
+            elif self.parallel:
                 stage, code, w, i, k, needed = call.step_checked_parallel(
                     self.model.arrays, self._state, self._control, self._contacts,
                     self._pairs, n, o, self._ball_joints)
@@ -387,6 +394,20 @@ class World(StateMixin, ControlMixin, QueryMixin):
             self._entry = ENTRY_POINTS.get(call.step_boxed, args)
             return out
         return self._entry(*args)
+
+    def _call_free(self, n, o):
+        """``step_free.step_free_boxed`` (a model with nothing to collide, constrain or
+        actuate: the full step's results from a few kernels, which compile in seconds),
+        through its compiled entry point once known."""
+        if self._free_box is None:
+            self._free_box = box_free_args(self.model.arrays, self._state, self._control,
+                                           self._ball_joints)
+        args = (self._free_box, n, o)
+        if self._free_entry is None:
+            out = step_free_boxed(*args)
+            self._free_entry = ENTRY_POINTS.get(step_free_boxed, args)
+            return out
+        return self._free_entry(*args)
 
     def _make_work(self, o):
         """The serial step's scratch memory (``work.make_step_work``), through its compiled
