@@ -99,6 +99,11 @@ class TrainConfig:
     disc_batch_size: int = 512
     gp_weight: float = 5.0
     replay_size: int = 100_000
+    init_from: str = ""
+    clone_samples: int = 200_000
+    clone_noise: float = 0.1
+    clone_epochs: int = 30
+    critic_warmup: int = 0
 
     @classmethod
     def for_task(cls, task, **overrides):
@@ -406,6 +411,8 @@ class Trainer:
             if self.log:
                 self.log(f"resumed {self.out_dir} at iteration {self.iteration} "
                          f"({self.samples} samples, {self.wall / 3600:.2f} h)")
+        elif c.init_from:
+            self._clone_teacher()
         else:
             self._warm_up_normalizers()
         self._writer = None
@@ -431,6 +438,18 @@ class Trainer:
         KL divergence is 50x the target, which the adaptive learning rate then pays for."""
         update_normalizers(self.alg, warm_up_observations(self.alg, self.vec,
                                                           self.config.steps_per_env))
+
+    def _clone_teacher(self):
+        """A fresh run's actor cloned from ``init_from`` (see ``tumble.rl.clone``); the
+        critic's normaliser from a rollout of the cloned actor."""
+        from .clone import clone_into
+        c = self.config
+        mse = clone_into(self.alg, self.env, c.init_from, samples=c.clone_samples,
+                         noise=c.clone_noise, epochs=c.clone_epochs, seed=c.seed, log=self.log)
+        self.clone_error = mse
+        data = warm_up_observations(self.alg, self.vec, c.steps_per_env)
+        self.alg.critic.update_normalization(TensorDict({"policy": data},
+                                                        batch_size=[data.shape[0]]))
 
     def _collect(self):
         """One rollout into the learner's storage and its returns; a RolloutStats."""
@@ -525,7 +544,12 @@ class Trainer:
             ep_steps.extend(stats.episode_steps)
             collect = time.perf_counter() - start
             t1 = time.perf_counter()
+            frozen = self.iteration < c.critic_warmup
+            if frozen:          # the actor (weights, std, normaliser) stays as it was
+                actor_state = {k: v.clone() for k, v in self.alg.actor.state_dict().items()}
             losses = self.alg.update()
+            if frozen:
+                self.alg.actor.load_state_dict(actor_state)
             if self.style is not None:
                 losses.update(self.style.update())
             learn = time.perf_counter() - t1
