@@ -108,8 +108,15 @@ def test_a_run_starts_from_the_teacher_and_warms_up_its_critic(tmp_path):
         assert torch.equal(v, before[k]), k
     assert any(not torch.equal(v, critic[k]) for k, v in t.alg.critic.state_dict().items())
     t.run(iterations=2)
-    assert any(not torch.equal(v, before[k]) for k, v in t.alg.actor.state_dict().items())
-    # a resumed run does not clone again: it has its networks
-    again = Trainer(tmp_path, None, resume=True, progress=False, log=None)
+    after = t.alg.actor.state_dict()
+    assert any(not torch.equal(v, before[k]) for k, v in after.items() if "normalizer" not in k)
+    # the cloned actor's observation normaliser stays as the teacher's data set it
+    norm = [k for k in after if "normalizer" in k]
+    assert norm and all(torch.equal(after[k], before[k]) for k in norm)
+    # a resumed run does not clone again (it has its networks) and keeps it frozen
+    again = Trainer(tmp_path, c, resume=True, progress=False, log=None)
     assert not hasattr(again, "clone_error")
     assert again.config.init_from == "walk"
+    kept = {k: v.clone() for k, v in again.alg.actor.state_dict().items() if k in norm}
+    again.run(iterations=3)
+    assert all(torch.equal(again.alg.actor.state_dict()[k], kept[k]) for k in norm)

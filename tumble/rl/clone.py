@@ -35,7 +35,7 @@ from ..math import quat_np as Q
 from .kernels import DOF_BALL, DOF_HINGE
 from .tasks.imitation import ImitationEnv
 
-__all__ = ["teacher_dataset", "fit_actor", "clone_into", "load_teacher"]
+__all__ = ["teacher_dataset", "fit_actor", "clone_into", "load_teacher", "freeze_normalizer"]
 
 
 def load_teacher(source):
@@ -139,11 +139,23 @@ def _quat_exp(v):
     return np.concatenate([v * k, np.cos(half)], axis=-1)
 
 
+def freeze_normalizer(alg):
+    """Stop ``alg``'s actor observation normaliser learning (rsl-rl's ``until``): the
+    cloned weights are fitted to the teacher's states' statistics, and a normaliser that
+    goes on averaging the policy's own states shifts every input under them (a cloned
+    walk then falls apart within a hundred PPO iterations). Not saved in a checkpoint:
+    call it again after loading one."""
+    norm = alg.get_policy().obs_normalizer
+    if not isinstance(norm, torch.nn.Identity):
+        norm.until = int(norm.count)
+
+
 def fit_actor(alg, obs, actions, *, epochs=30, batch_size=1024, learning_rate=1e-3, seed=0,
               log=None):
     """Fit the mean of ``alg``'s actor (rsl-rl PPO) to ``actions`` (n, A) at ``obs``
     (n, D) by least squares, after setting its observation normaliser to the data's mean
-    and standard deviation. Returns the final mean squared error (action units^2)."""
+    and standard deviation (and freezing it there: :func:`freeze_normalizer`). Returns the
+    held-out mean squared error (action units^2)."""
     actor = alg.get_policy()
     x = torch.as_tensor(obs, dtype=torch.float32)
     y = torch.as_tensor(actions, dtype=torch.float32)
@@ -155,6 +167,7 @@ def fit_actor(alg, obs, actions, *, epochs=30, batch_size=1024, learning_rate=1e
             norm._var.copy_(var)
             norm._std.copy_(var.sqrt())
             norm.count.fill_(x.shape[0])
+    freeze_normalizer(alg)
     params = list(actor.mlp.parameters())
     opt = torch.optim.Adam(params, lr=learning_rate)
     gen = torch.Generator().manual_seed(seed)

@@ -406,6 +406,9 @@ class Trainer:
             self.best = saved.get("best", -np.inf)
             if self.style is not None:
                 self.style.load_state_dict(saved["style"])
+            if self.config.init_from:       # a cloned actor's normaliser stays frozen
+                from .clone import freeze_normalizer
+                freeze_normalizer(self.alg)
             torch.set_rng_state(saved["torch_rng"])
             self._set_env_rng_state(saved["env_rng"])
             if self.log:

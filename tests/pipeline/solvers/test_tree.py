@@ -8,6 +8,7 @@ to the largest impulse) and the same number of active-set iterations; graphs wit
 must be refused by the planner and still solved (densely).
 """
 import numpy as np
+import pytest
 from hypothesis import example, given, settings, strategies as st
 
 import tumble
@@ -615,3 +616,31 @@ def test_right_guess_skips_lemke():
         assert guessed_active_set(rows, part, S, c, state, p, *scratch(n))
         took += 1
     assert took >= 10 and took + sliding == 40
+
+
+# -- Coulomb friction on a jointed chain --------------------------------------------------
+
+def sliding_chain(speed, mu=0.4):
+    """Three balls joined by ball joints, resting on the ground in a row along y and
+    pushed along x at ``speed`` m/s: one contact a ball,
+    none redundant; they slide until friction has spun them up to roll."""
+    b = tumble.ModelBuilder()
+    b.add_geom(None, "plane", friction=mu)
+    for i in range(3):
+        b.add_body(f"b{i}", pos=(0.0, 0.3 * i, 0.1), mass=1.0 + 0.5 * i,
+                   vel=(speed, 0.0, 0.0))
+        b.add_geom(f"b{i}", "sphere", size=0.1, friction=mu)
+    for i in range(2):
+        b.add_joint(f"j{i}", "ball", f"b{i}", f"b{i + 1}", anchor=(0.0, 0.3 * i + 0.15, 0.1))
+    return tumble.World(b.build(), dt=1 / 120)
+
+
+def test_a_sliding_ball_decelerates_as_coulomb_says():
+    """Balls sliding at 2 m/s with mu 0.1 lose mu g = 0.98 m/s every second until they
+    roll (at 5/7 of their speed, after 0.58 s)."""
+    world = sliding_chain(2.0, mu=0.1)
+    world.step(12)
+    v0 = world.body_vel[:, 0].mean()
+    world.step(30)
+    v1 = world.body_vel[:, 0].mean()
+    assert (v0 - v1) / 0.25 == pytest.approx(0.1 * 9.81, rel=0.02)
