@@ -44,8 +44,10 @@ def test_sizes_and_spec(env):
     nb = env.model.nbody
     assert env.observation_size == 1 + 15 * nb + 3
     assert env.action_size == 45
-    # 13 root features, 9 per actuated joint (19), 3 per end effector (wrists and ankles)
-    assert env.amp_feature_size == 13 + 9 * 19 + 3 * 4
+    # 13 root features, 9 per actuated joint but the toes (17), 3 per end effector (wrists
+    # and ankles)
+    assert env.amp_feature_size == 13 + 9 * 17 + 3 * 4
+    assert not any("toe" in env.model.joint_names[j].lower() for j in env.amp_joints)
     spec = env.spec()
     assert spec["task"] == "amp" and spec["clips"] == ["walk", "run", "idle"]
     obs, r, term, trunc, info = env.step(np.zeros((4, env.action_size)))
@@ -63,6 +65,28 @@ def test_the_discriminator_features_do_not_depend_on_heading(env, yaw, t, clip):
     _turn(s, np.array([yaw]), env.up, env.root)
     after = features(env, s)
     np.testing.assert_allclose(after, before, atol=2e-5)
+
+
+def test_the_discriminator_sees_a_clips_hinge_by_its_angle(env):
+    """A clip's knee turns a little off its axis, which a simulated hinge cannot: the
+    clips' transitions hold each hinge's rotation about its axis by its angle, as the
+    simulated character's do."""
+    from tumble.math import quat_np as Q
+    ref = env.references[0]
+    off_axis = [np.abs(Q.qrotvec(ref.frames.joint_quat[:, j])[:, 1:]).max() for j in env.amp_hinges]
+    assert max(off_axis) > 0.05                       # the clip's own rotations are off axis
+    s = env._sample_clips(np.zeros(8, np.int64), np.linspace(0.0, 0.8, 8))
+    angles = s.joint_q[:, env.amp_hinges, 0].copy()
+    env._hinges_on_axis(s)
+    rv = Q.qrotvec(s.joint_quat[:, env.amp_hinges])
+    np.testing.assert_allclose(rv[..., 0], angles, atol=1e-12)
+    np.testing.assert_allclose(rv[..., 1:], 0.0, atol=1e-12)
+    # the simulated hinges: rotations about their joint frame's x axis by their angle
+    env.step(np.random.default_rng(0).uniform(-0.5, 0.5, (4, env.action_size)))
+    sim = Q.qrotvec(env._joint_quat[:, env.amp_hinges])
+    q = np.reshape(env.world.joint_q, (4, env.model.njoint, 3))[:, env.amp_hinges, 0]
+    np.testing.assert_allclose(sim[..., 0], q, atol=1e-9)
+    np.testing.assert_allclose(sim[..., 1:], 0.0, atol=1e-9)
 
 
 def test_the_clips_move_the_way_the_character_faces(env):
@@ -312,7 +336,7 @@ def test_steer_gymnasium_environment():
     v = gym.make_vec("tumble/Steer-v0", num_envs=3, vectorization_mode="vector_entry_point")
     obs, _ = v.reset(seed=0)
     obs, r, term, trunc, infos = v.step(v.action_space.sample())
-    assert obs.shape == (3, 304) and infos["amp_obs"].shape == (3, 392)
+    assert obs.shape == (3, 304) and infos["amp_obs"].shape == (3, 356)
 
 
 def test_train_amp_from_the_command_line(tmp_path, capsys):

@@ -382,6 +382,10 @@ class Trainer:
         if resume and ckpt_path.exists():
             saved = torch.load(ckpt_path, weights_only=False, map_location="cpu")
             stored = TrainConfig.from_dict(saved["config"])
+            if stored.task == "amp" and "amp_exclude" not in saved.get("spec", {}) \
+                    and "amp_exclude" not in stored.env_kwargs:
+                # runs from before the discriminator left joints out saw all of them
+                stored.env_kwargs["amp_exclude"] = ()
             if config is not None:       # iterations and schedule may change on resume
                 stored.iterations = config.iterations
                 stored.save_every, stored.eval_every = config.save_every, config.eval_every

@@ -27,7 +27,12 @@ Discriminator observation of a transition (s, s'), ``info["amp_obs"]`` (N, 2F) a
 step (the ended episode's last transition for worlds that were reset): see
 :func:`tumble.rl.kernels.amp_features` (root height, rotation and velocities in the heading
 frame, joint rotations and rates, end-effector positions). :meth:`AMPEnv.reference_transitions`
-draws the same from the clips.
+draws the same from the clips. Two things the character cannot show are kept out of it, or
+the discriminator tells it from the clips at once and its style reward says nothing: the
+joints named in ``amp_exclude`` (the toes: the course's clips hold them still, while the
+simulated toes flex against the ground at every step), and the clips' hinge rotations off
+their axis (a clip's knee turns a little about other axes too; the simulated hinge cannot):
+a hinge is seen by its angle, about its joint frame's x axis, on both sides.
 
 Episodes start in a random frame of a random clip (reference state initialisation), turned
 to a random heading; they end early when a body other than the feet touches the ground (or
@@ -78,6 +83,7 @@ class AMPEnv(BatchedEnv):
     end_effectors, contact_bodies, min_root_height : as in the imitation task.
     holdout : the fraction at the end of every clip kept out of
         ``reference_transitions`` (for measuring the discriminator on unseen frames).
+    amp_exclude : name fragments of joints the discriminator does not see (module docs).
     seed, autoreset, parallel : as in the imitation task.
     """
 
@@ -85,7 +91,7 @@ class AMPEnv(BatchedEnv):
                  physics_hz=60, contact="pgs", episode_seconds=20.0, action_scale=1.0,
                  speed_range=(0.4, 2.2), command_seconds=(2.0, 5.0), max_turn=math.pi,
                  task_scale=1.0, end_effectors=None, contact_bodies=None, min_root_height=0.3,
-                 holdout=0.1, seed=None, autoreset=True, parallel=None):
+                 holdout=0.1, amp_exclude=("toe",), seed=None, autoreset=True, parallel=None):
         where = "AMPEnv"
         check_task_settings(where, num_envs, control_hz, physics_hz, episode_seconds)
         if isinstance(clips, (str, bytes)) or not hasattr(clips, "__len__") or len(clips) == 0:
@@ -132,7 +138,19 @@ class AMPEnv(BatchedEnv):
         self.allowed_contacts = _body_set(self.ragdoll, contact_bodies, ("ankle", "foot", "toe"),
                                           "contact_bodies")
         self.min_root_height = float(min_root_height)
-        self.amp_joints = self.dof_joint.copy()
+        try:
+            self.amp_exclude = tuple(str(f) for f in amp_exclude)
+            fragments = [f.lower() for f in self.amp_exclude]
+        except TypeError:
+            raise ModelError(f"{where}: amp_exclude must be a list of joint name fragments, "
+                             f"got {amp_exclude!r}") from None
+        self.amp_joints = np.array([j for j in self.dof_joint if not any(
+            f in model.joint_names[j].lower() for f in fragments)], np.int64)
+        if len(self.amp_joints) == 0:
+            raise ModelError(f"{where}: amp_exclude {amp_exclude!r} leaves the discriminator "
+                             f"no joint to see")
+        self.amp_hinges = np.array([j for j in self.amp_joints
+                                    if model.joint_type_names[j] == "hinge"], np.int64)
         self.amp_feature_size = (AMP_ROOT_FEATURES + AMP_JOINT_FEATURES * len(self.amp_joints)
                                  + 3 * len(self.end_effectors))
         self.amp_observation_size = 2 * self.amp_feature_size
@@ -316,12 +334,23 @@ class AMPEnv(BatchedEnv):
         F = self.amp_feature_size
         for part, dt in ((slice(0, F), 0.0), (slice(F, 2 * F), self.dt)):
             s = self._sample_clips(which, t + dt)
+            self._hinges_on_axis(s)
             feats = np.empty((n, F), np.float32)
             amp_features(s.body_pos, s.body_quat, s.body_vel, s.body_angvel, s.joint_quat,
                          s.joint_qd, self.root, self.up, self.amp_joints, self.end_effectors,
                          feats)
             out[:, part] = feats
         return out
+
+    def _hinges_on_axis(self, s):
+        """A ReferenceSample's hinge joints (in place) turned about their axis only, by their
+        angle: what a simulated hinge can show (its joint frame's x axis)."""
+        for j in self.amp_hinges:
+            half = 0.5 * s.joint_q[:, j, 0]
+            s.joint_quat[:, j] = 0.0
+            s.joint_quat[:, j, 0] = np.sin(half)
+            s.joint_quat[:, j, 3] = np.cos(half)
+            s.joint_qd[:, j, 1:] = 0.0
 
     # -- reading -------------------------------------------------------------------------
     def direction(self, heading):
@@ -351,6 +380,7 @@ class AMPEnv(BatchedEnv):
             "total_mass": float(m.body_mass.sum()),
             "observation_size": int(self.observation_size), "action_size": int(self.action_size),
             "amp_observation_size": int(self.amp_observation_size),
+            "amp_exclude": list(self.amp_exclude),
             "control_hz": self.control_hz, "physics_hz": self.physics_hz,
             "action_scale": self.action_scale.tolist(), "contact": self.world.contact,
         }
