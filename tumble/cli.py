@@ -164,7 +164,7 @@ def _train(args):
                  if v is not None}
         if args.task == "amp":
             if args.init_from:
-                given.update(init_from=args.init_from, critic_warmup=20)
+                given["init_from"] = args.init_from
             config = TrainConfig.for_task("amp", clips=clips, **given)
         else:
             config = TrainConfig.for_task("imitate", clip=clip, **given)
@@ -341,7 +341,7 @@ def main(argv=None):
     _run_options(amp, "amp-CLIPS (runs/amp-walk-run-idle)", envs=256)
     amp.add_argument("--init-from", metavar="POLICY",
                      help="start from an imitation policy (a file or a shipped name: 'walk'), "
-                          "behaviour-cloned into the steering actor; the first 20 iterations "
+                          "behaviour-cloned into the steering actor; the first 40 iterations "
                           "then train only the critic")
     amp.set_defaults(func=_train)
 

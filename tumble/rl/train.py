@@ -114,6 +114,12 @@ class TrainConfig:
             base = dict(task="amp", clips=DEFAULT_CLIPS, num_envs=256, action_scale=1.0,
                         init_std=0.1, learning_rate=2e-5, gp_weight=10.0, eval_seconds=60.0,
                         eval_episodes=16)
+            if overrides.get("init_from"):
+                # fine-tuning a cloned walk: less noise and smaller steps than from scratch
+                # (with the defaults it fell apart within 100 iterations), the critic
+                # trained alone first, a slower discriminator
+                base.update(init_std=0.05, desired_kl=0.01, critic_warmup=40,
+                            disc_learning_rate=5e-5)
         elif task == "imitate":
             base = {}
         else:
