@@ -120,3 +120,21 @@ def test_a_run_starts_from_the_teacher_and_warms_up_its_critic(tmp_path):
     kept = {k: v.clone() for k, v in again.alg.actor.state_dict().items() if k in norm}
     again.run(iterations=3)
     assert all(torch.equal(again.alg.actor.state_dict()[k], kept[k]) for k in norm)
+
+
+def test_train_amp_from_the_walk_on_the_command_line(tmp_path, capsys, monkeypatch):
+    from tumble.cli import main
+    from tumble.rl import clone
+    real = clone.clone_into
+    monkeypatch.setattr(clone, "clone_into", lambda *a, **kw: real(
+        *a, **{**kw, "samples": 256, "epochs": 1}))          # a small teacher data set
+    out = tmp_path / "run"
+    assert main(["train", "amp", "walk", "--init-from", "walk", "--out", str(out), "--envs", "4",
+                 "--iterations", "1", "--eval-every", "0", "--no-progress"]) == 0
+    assert "clone: 256 samples of the teacher" in capsys.readouterr().out
+    config = torch.load(out / "checkpoint.pt", weights_only=False)["config"]
+    assert config["init_from"] == "walk" and config["critic_warmup"] == 40
+    assert config["init_std"] == 0.05
+    code = main(["train", "amp", "--init-from", "no-such-walk", "--out", str(tmp_path / "x"),
+                 "--envs", "4", "--iterations", "1", "--no-progress"])
+    assert code != 0 and "shipped policies" in capsys.readouterr().err
