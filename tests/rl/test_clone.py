@@ -14,8 +14,8 @@ from tumble.rl.tasks.amp import AMPEnv
 torch = pytest.importorskip("torch")
 pytest.importorskip("rsl_rl")
 
-from tumble.rl.clone import (_quat_exp, _steering_actions, clone_into,  # noqa: E402
-                             load_teacher, teacher_dataset)
+from tumble.rl.clone import (_steering_actions, clone_into, load_teacher,  # noqa: E402
+                             teacher_dataset)
 from tumble.rl.train import TrainConfig, Trainer, make_algorithm  # noqa: E402
 
 
@@ -33,8 +33,13 @@ def test_steering_actions_reproduce_the_targets(student, seed, spread):
     same ball-joint rotations (to 1e-9) and hinge angles."""
     rng = np.random.default_rng(seed)
     nj, n = student.model.njoint, 3
-    tq = np.ascontiguousarray(_quat_exp(rng.normal(0, spread, (n * nj, 3))).reshape(n, nj, 4))
-    tj = rng.normal(0, spread, (n, nj, 3))
+    # targets: random rotation vectors and angles of the actuated joints (the kernel, from
+    # the identity)
+    tq, tj = np.zeros((n, nj, 4)), np.zeros((n, nj, 3))
+    tq[..., 3] = 1.0
+    pd_targets(rng.normal(0.0, spread, (n, student.action_size)), np.ones(student.action_size),
+               False, student.dof_joint, student.dof_kind, student.dof_start, tq.copy(),
+               tj.copy(), tq, tj)
     a = _steering_actions(student, tq, tj)
     oq, oj = np.zeros_like(tq), np.zeros_like(tj)
     mq = np.ascontiguousarray(np.broadcast_to(student._mean_quat, (n,) + student._mean_quat.shape))

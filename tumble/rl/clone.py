@@ -32,7 +32,7 @@ import torch
 
 from ..errors import ModelError
 from ..math import quat_np as Q
-from .kernels import DOF_BALL, DOF_HINGE
+from .kernels import DOF_BALL, DOF_HINGE, pd_targets
 from .tasks.imitation import ImitationEnv
 
 __all__ = ["teacher_dataset", "fit_actor", "clone_into", "load_teacher", "freeze_normalizer"]
@@ -88,7 +88,6 @@ def teacher_dataset(teacher, student, *, samples=200_000, num_envs=64, noise=0.1
     steps = max(1, int(math.ceil(samples / num_envs)))
     obs_out = np.empty((steps * num_envs, student.observation_size), np.float32)
     act_out = np.empty((steps * num_envs, student.action_size), np.float32)
-    scale = np.asarray(spec["action_scale"], float)
     obs = env.reset(seed=seed)
     alive = []
     for k in range(steps):
@@ -100,18 +99,11 @@ def teacher_dataset(teacher, student, *, samples=200_000, num_envs=64, noise=0.1
         o[:, body + 2] = rng.uniform(*student.speed_range, num_envs)
         clean = np.clip(teacher.act(obs), -1.0, 1.0)
         # the targets the teacher's clean action sets: the clip's pose at the end of this
-        # policy step, turned by the action (the imitation task's residual targets)
+        # policy step, turned by the action (the imitation task's own kernel)
         r = env.reference.sample(env.ref_time + env.dt)
-        tq = r.joint_quat.copy()
-        tj = r.joint_q.copy()
-        for j, kind, s in zip(env.dof_joint, env.dof_kind, env.dof_start):
-            if kind == DOF_BALL:
-                d = _quat_exp(scale[s:s + 3] * clean[:, s:s + 3])
-                tq[:, j] = Q.qmul(tq[:, j], d) if spec["residual"] else d
-            else:
-                n = _coords(kind)
-                v = scale[s:s + n] * clean[:, s:s + n]
-                tj[:, j, :n] = (tj[:, j, :n] + v) if spec["residual"] else v
+        tq, tj = r.joint_quat.copy(), r.joint_q.copy()
+        pd_targets(clean, env.action_scale, env.residual, env.dof_joint, env.dof_kind,
+                   env.dof_start, r.joint_quat, r.joint_q, tq, tj)
         act_out[rows] = np.clip(_steering_actions(student, tq, tj), -1.0, 1.0)
         noisy = clean + noise * rng.standard_normal(clean.shape)
         obs, _, _, _, info = env.step(np.clip(noisy, -1.0, 1.0))
@@ -129,14 +121,6 @@ def teacher_dataset(teacher, student, *, samples=200_000, num_envs=64, noise=0.1
 def _coords(kind):
     """Action components of a hinge (1) or universal (2) joint."""
     return 1 if kind == DOF_HINGE else 2
-
-
-def _quat_exp(v):
-    """Unit quaternions (n, 4) (x, y, z, w) of rotation vectors (n, 3) (rad)."""
-    angle = np.linalg.norm(v, axis=-1, keepdims=True)
-    half = 0.5 * angle
-    k = np.where(angle > 1e-12, np.sin(half) / np.maximum(angle, 1e-300), 0.5)
-    return np.concatenate([v * k, np.cos(half)], axis=-1)
 
 
 def freeze_normalizer(alg):
