@@ -1,4 +1,5 @@
-"""tumble._jit: the noalloc rule is enforced, the namedtuple helpers and the clock work."""
+"""tumble._jit: the noalloc rule is enforced, the namedtuple helpers, the clock and the
+argument box work."""
 from collections import namedtuple
 
 import numpy as np
@@ -6,8 +7,8 @@ import pytest
 from numba import njit
 from numba.core.errors import TypingError
 
-from tumble._jit import (HAS_TICKS, assign_arrays, copy_arrays, noalloc, tick_seconds, ticks,
-                         world_of)
+from tumble._jit import (ENTRY_POINTS, HAS_TICKS, ArgBox, assign_arrays, copy_arrays, noalloc,
+                         tick_seconds, ticks, world_of)
 
 Pair = namedtuple("Pair", ["a", "count"])
 
@@ -61,3 +62,41 @@ def test_ticks_count_forward_in_seconds_units():
     b = ticks()
     assert b >= a
     assert 1e-12 < tick_seconds(0.005) < 1e-6
+
+
+Two = namedtuple("Two", "a b")
+
+
+@njit(cache=True)
+def _boxed(a, pair):
+    return ArgBox((a, pair))
+
+
+@njit(cache=True)
+def _bump_boxed(box, k):
+    a, pair = box.args
+    a[0] += k
+    pair.b[1] = pair.a[0] + a[0]
+    return a.shape[0] + pair.b.shape[0]
+
+
+def test_an_argbox_holds_the_very_arrays_it_was_made_from():
+    """Writes through the box reach the caller's arrays and the caller's reach the box's;
+    the box keeps them alive after the caller lets go of its names; its entry point is
+    found by its type like any argument's."""
+    a, pair = np.zeros(3), Two(np.arange(2.0), np.zeros(4))
+    box = _boxed(a, pair)
+    assert isinstance(box, ArgBox)
+    assert _bump_boxed(box, 2.0) == 7
+    assert a[0] == 2.0 and pair.b[1] == 2.0
+    a[0] = 10.0
+    _bump_boxed(box, 1.0)
+    assert a[0] == 11.0 and pair.b[1] == 11.0
+    ref = a
+    del a, pair
+    entry = ENTRY_POINTS.get(_bump_boxed, (box, 1.0))
+    assert entry is not _bump_boxed           # the compiled entry point, not the dispatcher
+    entry(box, 1.0)
+    assert ref[0] == 12.0
+    other = _boxed(np.zeros(5), Two(np.arange(2.0), np.zeros(4)))
+    assert ENTRY_POINTS.get(_bump_boxed, (other, 1.0)) is entry     # same types

@@ -152,6 +152,8 @@ def _train(args):
             c.iterations = args.iterations
         if args.eval_every is not None:
             c.eval_every = args.eval_every
+        if args.fixed_std is not None:
+            trainer.fix_std(args.fixed_std)
     else:
         if os.path.exists(checkpoint):
             # never overwrite a run (it may be training right now): appended logs and a
@@ -162,6 +164,8 @@ def _train(args):
         given = {k: v for k, v in (("num_envs", args.envs), ("iterations", args.iterations),
                                    ("eval_every", args.eval_every), ("seed", args.seed))
                  if v is not None}
+        if args.fixed_std is not None:
+            given.update(init_std=args.fixed_std, learn_std=False)
         if args.task == "amp":
             if args.init_from:
                 given["init_from"] = args.init_from
@@ -208,6 +212,9 @@ def _run_options(parser, default_dir, *, envs):
     parser.add_argument("--seed", type=int, metavar="S", help="random seed (default 0)")
     parser.add_argument("--eval-every", type=_non_negative_int, metavar="K",
                         help="evaluate every K iterations; 0: never (default 50)")
+    parser.add_argument("--fixed-std", type=_positive(float), metavar="S",
+                        help="hold the policy's action noise at S instead of learning it "
+                             "(AMP's default: fixed); with --resume it replaces the run's")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("--workers", type=_positive(int), metavar="K",
                         help="collect the samples in K Ray workers of N characters each "
@@ -231,12 +238,7 @@ def _play(args):
     viewer = Viewer(world, host=args.host, port=args.port, paused=args.paused,
                     speed=args.speed, control=driver, follow=root, contacts=args.contacts,
                     verbose=False)
-    if driver.clip_time is None:                 # a steering policy: heading and speed
-        from .rl.play import add_steering_gui
-        add_steering_gui(viewer, driver)
-        print("tumble play: steer it with the Command folder (speed, heading, turn buttons)",
-              flush=True)
-    _steering_controls(viewer, driver)
+    _steering_controls(viewer, driver)          # a steering policy: heading and speed
     print(f"tumble viewer: open {viewer.url} in a browser (Ctrl-C to stop)", flush=True)
     viewer.serve_forever()
     return 0

@@ -147,12 +147,31 @@ def test_reference_transitions_keep_the_held_back_frames_apart(env):
     assert np.all(np.abs(a[:, env.amp_feature_size] - a[:, 0]) < 0.1)
 
 
+def test_clip_transitions_turn_only_the_roots_yaw_rate(env):
+    """turn_rate: the same clip transitions, each shown turning at one yaw rate within
+    +-turn_rate, in s and s' alike; no other feature moves."""
+    F, k = env.amp_feature_size, 10 + env.up          # the root's vertical angular velocity
+    straight, turning = AMPEnv.__new__(AMPEnv), AMPEnv.__new__(AMPEnv)
+    straight.__dict__.update(env.__dict__, turn_rate=0.0)
+    turning.__dict__.update(env.__dict__, turn_rate=0.8)
+    a = straight.reference_transitions(256, np.random.default_rng(5))
+    b = turning.reference_transitions(256, np.random.default_rng(5))
+    added = b[:, k] - a[:, k]
+    np.testing.assert_allclose(b[:, F + k] - a[:, F + k], added, atol=1e-5)
+    assert np.all(np.abs(added) <= 0.8 + 1e-6) and added.std() > 0.3      # spread over it
+    others = np.ones(2 * F, bool)
+    others[[k, F + k]] = False
+    np.testing.assert_array_equal(a[:, others], b[:, others])
+    assert env.spec()["turn_rate"] == env.turn_rate == 0.8
+
+
 @pytest.mark.parametrize("bad, match", [
     (dict(clips=[]), "clips"), (dict(clips="walk"), "clips"),
     (dict(speed_range=(2.0, 1.0)), "speed_range"), (dict(speed_range=(-1, 1)), "speed_range"),
     (dict(command_seconds=(0, 1)), "command_seconds"), (dict(max_turn=4.0), "max_turn"),
     (dict(task_scale=0.0), "task_scale"), (dict(holdout=1.0), "holdout"),
-    (dict(clips=["no_such_clip.bvh"]), "no_such_clip"),
+    (dict(clips=["no_such_clip.bvh"]), "no_such_clip"), (dict(turn_rate=-0.1), "turn_rate"),
+    (dict(turn_rate=float("nan")), "turn_rate"),
 ])
 def test_bad_settings_are_named(bad, match):
     with pytest.raises(tumble.TumbleError, match=match):
@@ -351,5 +370,8 @@ def test_train_amp_from_the_command_line(tmp_path, capsys):
     assert p.spec["clips"] == ["walk", "idle"] and p.info["iteration"] == 1
     assert main(args) == 2                                 # never overwrites a run
     assert main(["train", "amp", "--out", str(out), "--resume", "--iterations", "2",
-                 "--no-progress"]) == 0
+                 "--fixed-std", "0.07", "--no-progress"]) == 0
     assert Policy.load(out / "policy.npz").info["iteration"] == 2
+    saved = torch.load(out / "checkpoint.pt", weights_only=False, map_location="cpu")
+    assert saved["config"]["learn_std"] is False and saved["config"]["init_std"] == 0.07
+    assert saved["spec"]["turn_rate"] == 0.8

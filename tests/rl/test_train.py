@@ -115,3 +115,34 @@ def test_same_seed_same_first_iteration(run, tmp_path):
     # bit for bit (the CSV holds Python's round-tripping repr of each float)
     for key in ("reward", "r_pose", "r_root", "loss_value", "loss_surrogate", "action_std"):
         assert a[key] == b[key], key
+
+
+def _quiet(*_):
+    pass
+
+
+def _action_std(trainer):
+    return trainer.alg.actor.distribution.std_param.detach().numpy().copy()
+
+
+def test_a_fixed_action_noise_stays_fixed_and_survives_resumes(tmp_path):
+    """``learn_std=False`` holds the noise at init_std through updates; ``fix_std`` turns a
+    run that learnt it into one that holds it, and a resume keeps holding it."""
+    held = train(tmp_path / "held", config(init_std=0.2, learn_std=False), progress=False,
+                 log=_quiet)
+    np.testing.assert_array_equal(_action_std(held), np.full(45, 0.2, np.float32))
+    learnt = train(tmp_path / "learnt", config(init_std=0.2, learning_rate=1e-3,
+                                                desired_kl=1.0), progress=False, log=_quiet)
+    assert not np.allclose(_action_std(learnt), 0.2)      # the default: std is learnt
+    resumed = Trainer(tmp_path / "learnt", config(iterations=3), resume=True, progress=False,
+                      log=_quiet)
+    resumed.fix_std(0.07)
+    resumed.run()
+    np.testing.assert_allclose(_action_std(resumed), 0.07, rtol=1e-6)
+    again = Trainer(tmp_path / "learnt", config(iterations=4), resume=True, progress=False,
+                    log=_quiet)
+    assert again.config.learn_std is False and again.config.init_std == 0.07
+    again.run()
+    np.testing.assert_allclose(_action_std(again), 0.07, rtol=1e-6)
+    with pytest.raises(tumble.ModelError, match="noise"):
+        again.fix_std(0.0)

@@ -9,15 +9,14 @@ all it saved, so a failed call leaves the world bit for bit as it was.
 
 Each array handed from Python to compiled code costs a record of its shape and data and a
 reference (for the step's ~210 arrays, 5.6 us of a ``world.step(1)`` call's 25 us, on the
-ragdoll). So the serial path hands over one Numba typed list holding them all
+ragdoll). So the serial path hands over one box holding them all (``_jit.ArgBox``)
 (``box_step_args``), made once and kept by ``World`` while none of its arrays is replaced,
 and calls ``step_boxed`` through its compiled entry point (``_jit.ENTRY_POINTS``).
 """
 import numpy as np
 from numba import njit
-from numba.typed import List
 
-from .._jit import assign_arrays, copy_arrays, noalloc
+from .._jit import ArgBox, assign_arrays, copy_arrays, noalloc
 from ..model.types import STATIC
 from .checks import DRIVE_OK, STATE_OK, check_drives, check_state
 from .parallel import step_worlds_parallel
@@ -138,12 +137,10 @@ def _finish(s, c, con, saved, status):
 
 @njit(cache=True)
 def box_step_args(m, s, c, con, pairs, ball, work):
-    """The arrays ``step_checked`` takes, held in one Numba typed list (one item, the tuple
-    (m, s, c, con, pairs, ball, work)) for ``step_boxed``. A typed list crosses over as one
-    object and holds the very same arrays (writes on either side are seen by the other)."""
-    box = List()
-    box.append((m, s, c, con, pairs, ball, work))
-    return box
+    """The arrays ``step_checked`` takes, the tuple (m, s, c, con, pairs, ball, work), in
+    one ``ArgBox`` for ``step_boxed``: it crosses over as one object and holds the very
+    same arrays (writes on either side are seen by the other)."""
+    return ArgBox((m, s, c, con, pairs, ball, work))
 
 
 @njit(cache=True)
@@ -152,5 +149,5 @@ def step_boxed(box, n, o):
     is inlined here (Numba IR): a call would count a reference to each of its ~210 arrays
     on the way in and out (5 us). ``step_worlds`` is not: inlined, its loop ran 1.5 us a
     step slower."""
-    m, s, c, con, pairs, ball, work = box[0]
+    m, s, c, con, pairs, ball, work = box.args
     return step_checked(m, s, c, con, pairs, n, o, ball, work)

@@ -10,9 +10,8 @@ body, a projectile, a tumbling satellite: the demo).
 """
 import numpy as np
 from numba import njit
-from numba.typed import List
 
-from .._jit import world_of
+from .._jit import ArgBox, world_of
 from .arrays import (STAGE_CHECK, STAGE_COLLIDE, STAGE_COORDINATES, STAGE_FORCES,
                      STAGE_INTEGRATE_POSITIONS, STAGE_INTEGRATE_VELOCITIES, STAGE_PROJECT)
 from .call import CALL_STEPPED, _prepare, clear_applied
@@ -93,16 +92,14 @@ def step_free_checked(m, s, c, n, o, ball):
 
 @njit(cache=True)
 def box_free_args(m, s, c, ball):
-    """The arrays ``step_free_checked`` takes, in one Numba typed list (see
+    """The arrays ``step_free_checked`` takes, in one ``ArgBox`` (see
     ``call.box_step_args``: one object crosses into compiled code instead of ~90 arrays,
     which halves a free body's ``step(1)`` call)."""
-    box = List()
-    box.append((m, s, c, ball))
-    return box
+    return ArgBox((m, s, c, ball))
 
 
 @njit(cache=True)
 def step_free_boxed(box, n, o):
     """``step_free_checked`` on the arrays held by ``box`` (``box_free_args``)."""
-    m, s, c, ball = box[0]
+    m, s, c, ball = box.args
     return step_free_checked(m, s, c, n, o, ball)

@@ -19,6 +19,7 @@ optimiser, iteration, samples, wall time, random generators' states, configurati
 """
 import csv
 import dataclasses
+import math
 import os
 import time
 from dataclasses import dataclass, field
@@ -51,7 +52,9 @@ class TrainConfig:
     action_scale, env_kwargs (more ImitationEnv keywords).
     PPO (rsl-rl): steps_per_env (rollout length), epochs, minibatches, learning_rate (adaptive
     by the KL to ``desired_kl``), gamma, lam, clip, entropy_coef, init_std, hidden (MLP
-    sizes of actor and critic), activation. Why the small learning rate: with 45 action
+    sizes of actor and critic), activation, learn_std (False: the action noise stays at
+    init_std, as AMP keeps it; a learnt one shrank to 0.02 in the AMP fine-tune, and with it
+    the exploration and the step PPO's KL bound allows). Why the small learning rate: with 45 action
     dimensions at a standard deviation of 0.3, one Adam step of 3e-4 moves the policy by a
     KL of 0.6 (measured on the walk), 30x the target; near 1e-5 the KL of a whole update
     (20 minibatch steps) is about 0.03, the trust region PPO wants (AMP uses 2e-5).
@@ -81,6 +84,7 @@ class TrainConfig:
     clip_param: float = 0.2
     entropy_coef: float = 0.0
     init_std: float = 0.3
+    learn_std: bool = True
     hidden: tuple = (512, 256)
     activation: str = "elu"
     iterations: int = 1000
@@ -112,8 +116,8 @@ class TrainConfig:
             # a small action noise: the discriminator tells jittering joints from the
             # clips' at once (AMP keeps its policy's standard deviation at 0.055 rad)
             base = dict(task="amp", clips=DEFAULT_CLIPS, num_envs=256, action_scale=1.0,
-                        init_std=0.1, learning_rate=2e-5, gp_weight=10.0, eval_seconds=60.0,
-                        eval_episodes=16)
+                        init_std=0.1, learn_std=False, learning_rate=2e-5, gp_weight=10.0,
+                        eval_seconds=60.0, eval_episodes=16)
             if overrides.get("init_from"):
                 # fine-tuning a cloned walk: less noise and smaller steps than from scratch
                 # (with the defaults it fell apart within 100 iterations), the critic
@@ -270,7 +274,7 @@ def algorithm_config(c):
         "actor": {"class_name": "MLPModel", "hidden_dims": list(c.hidden),
                   "activation": c.activation, "obs_normalization": True,
                   "distribution_cfg": {"class_name": "GaussianDistribution",
-                                       "init_std": c.init_std}},
+                                       "init_std": c.init_std, "learn_std": c.learn_std}},
         "critic": {"class_name": "MLPModel", "hidden_dims": list(c.hidden),
                    "activation": c.activation, "obs_normalization": True},
     }
@@ -392,6 +396,10 @@ class Trainer:
                     and "amp_exclude" not in stored.env_kwargs:
                 # runs from before the discriminator left joints out saw all of them
                 stored.env_kwargs["amp_exclude"] = ()
+            if stored.task == "amp" and "turn_rate" not in saved.get("spec", {}) \
+                    and "turn_rate" not in stored.env_kwargs:
+                # nor were they shown the clips turning
+                stored.env_kwargs["turn_rate"] = 0.0
             if config is not None:       # iterations and schedule may change on resume
                 stored.iterations = config.iterations
                 stored.save_every, stored.eval_every = config.save_every, config.eval_every
@@ -419,6 +427,8 @@ class Trainer:
             if self.config.init_from:       # a cloned actor's normaliser stays frozen
                 from .clone import freeze_normalizer
                 freeze_normalizer(self.alg)
+            if not self.config.learn_std:
+                self.fix_std(self.config.init_std)
             torch.set_rng_state(saved["torch_rng"])
             self._set_env_rng_state(saved["env_rng"])
             if self.log:
@@ -434,6 +444,19 @@ class Trainer:
             self._writer = SummaryWriter(str(self.out_dir / "tb"))
         except ImportError:
             pass
+
+    def fix_std(self, std):
+        """Hold the policy's action noise at ``std`` (per action dimension) from now on, also
+        across resumes: the run's ``learn_std`` becomes False and its ``init_std`` ``std``."""
+        if not (std > 0 and math.isfinite(std)):
+            raise ModelError(f"train: the action noise must be positive and finite, got {std!r}")
+        self.config.learn_std, self.config.init_std = False, float(std)
+        dist = self.alg.actor.distribution
+        param = dist.std_param if hasattr(dist, "std_param") else dist.log_std_param
+        with torch.no_grad():
+            param.fill_(std if hasattr(dist, "std_param") else math.log(std))
+        param.requires_grad_(False)
+        param.grad = None
 
     def _make_sampler(self):
         """The worlds that collect the samples (here, in this process) and the learner."""

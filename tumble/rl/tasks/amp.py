@@ -56,6 +56,9 @@ __all__ = ["AMPEnv", "DEFAULT_CLIPS", "TASK_REWARD_TERMS"]
 DEFAULT_CLIPS = ("walk", "run", "idle")
 TASK_REWARD_TERMS = ("task",)
 
+# where the root's angular velocity (heading frame) sits in a state's features (amp_features)
+AMP_ROOT_ANGVEL = AMP_ROOT_FEATURES - 3
+
 
 def _check_range(where, name, value, low=0.0):
     try:
@@ -84,6 +87,11 @@ class AMPEnv(BatchedEnv):
     holdout : the fraction at the end of every clip kept out of
         ``reference_transitions`` (for measuring the discriminator on unseen frames).
     amp_exclude : name fragments of joints the discriminator does not see (module docs).
+    turn_rate : the clips' transitions are shown to the discriminator as if walked along a
+        curve: a yaw rate drawn uniformly from [-turn_rate, turn_rate] rad/s is added to the
+        root's angular velocity about the vertical (the only feature a steady turn about the
+        root changes: everything else is in the heading frame). The course's clips go
+        straight ahead; without it turning looks unlike them. 0: as recorded.
     seed, autoreset, parallel : as in the imitation task.
     """
 
@@ -91,7 +99,8 @@ class AMPEnv(BatchedEnv):
                  physics_hz=60, contact="pgs", episode_seconds=20.0, action_scale=1.0,
                  speed_range=(0.4, 2.2), command_seconds=(2.0, 5.0), max_turn=math.pi,
                  task_scale=1.0, end_effectors=None, contact_bodies=None, min_root_height=0.3,
-                 holdout=0.1, amp_exclude=("toe",), seed=None, autoreset=True, parallel=None):
+                 holdout=0.1, amp_exclude=("toe",), turn_rate=0.8, seed=None, autoreset=True,
+                 parallel=None):
         where = "AMPEnv"
         check_task_settings(where, num_envs, control_hz, physics_hz, episode_seconds)
         if isinstance(clips, (str, bytes)) or not hasattr(clips, "__len__") or len(clips) == 0:
@@ -107,6 +116,9 @@ class AMPEnv(BatchedEnv):
             raise ModelError(f"{where}: task_scale must be > 0, got {task_scale!r}")
         if not (np.isfinite(holdout) and 0 <= holdout < 1):
             raise ModelError(f"{where}: holdout must be in [0, 1), got {holdout!r}")
+        if not (np.isfinite(turn_rate) and 0 <= turn_rate <= 10):
+            raise ModelError(f"{where}: turn_rate must be in [0, 10] rad/s, got {turn_rate!r}")
+        self.turn_rate = float(turn_rate)
         self.max_turn, self.task_scale, self.holdout = float(max_turn), float(task_scale), \
             float(holdout)
         self.ragdoll = games105_ragdoll("floating") if ragdoll is None else ragdoll
@@ -320,8 +332,9 @@ class AMPEnv(BatchedEnv):
     # -- the clips' side of the discriminator ----------------------------------------------
     def reference_transitions(self, n, rng, *, held_out=False):
         """(n, 2F) float32 transitions (s, s') drawn from the clips (each clip equally
-        likely, a uniform time within it; s' one policy step later). ``held_out``: only
-        from the last ``holdout`` fraction of each clip (else only from the rest)."""
+        likely, a uniform time within it; s' one policy step later), each turned at a random
+        yaw rate up to ``turn_rate``. ``held_out``: only from the last ``holdout`` fraction
+        of each clip (else only from the rest)."""
         which = rng.integers(0, len(self.references), n)
         periods = np.array([r.period for r in self.references])[which]
         u = rng.uniform(0.0, 1.0, n)
@@ -340,6 +353,10 @@ class AMPEnv(BatchedEnv):
                          s.joint_qd, self.root, self.up, self.amp_joints, self.end_effectors,
                          feats)
             out[:, part] = feats
+        if self.turn_rate > 0:
+            yaw_rate = rng.uniform(-self.turn_rate, self.turn_rate, n).astype(np.float32)
+            out[:, AMP_ROOT_ANGVEL + self.up] += yaw_rate
+            out[:, F + AMP_ROOT_ANGVEL + self.up] += yaw_rate
         return out
 
     def _hinges_on_axis(self, s):
@@ -380,7 +397,7 @@ class AMPEnv(BatchedEnv):
             "total_mass": float(m.body_mass.sum()),
             "observation_size": int(self.observation_size), "action_size": int(self.action_size),
             "amp_observation_size": int(self.amp_observation_size),
-            "amp_exclude": list(self.amp_exclude),
+            "amp_exclude": list(self.amp_exclude), "turn_rate": self.turn_rate,
             "control_hz": self.control_hz, "physics_hz": self.physics_hz,
             "action_scale": self.action_scale.tolist(), "contact": self.world.contact,
         }
