@@ -374,4 +374,5 @@ def test_train_amp_from_the_command_line(tmp_path, capsys):
     assert Policy.load(out / "policy.npz").info["iteration"] == 2
     saved = torch.load(out / "checkpoint.pt", weights_only=False, map_location="cpu")
     assert saved["config"]["learn_std"] is False and saved["config"]["init_std"] == 0.07
+    assert TrainConfig.for_task("amp").learn_std           # learnt unless asked
     assert saved["spec"]["turn_rate"] == 0.8
