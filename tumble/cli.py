@@ -169,6 +169,8 @@ def _train(args):
         if args.task == "amp":
             if args.init_from:
                 given["init_from"] = args.init_from
+            if args.task_reward:
+                given["env_kwargs"] = {"task_reward": args.task_reward}
             config = TrainConfig.for_task("amp", clips=clips, **given)
         else:
             config = TrainConfig.for_task("imitate", clip=clip, **given)
@@ -345,6 +347,10 @@ def main(argv=None):
                      help="start from an imitation policy (a file or a shipped name: 'walk'), "
                           "behaviour-cloned into the steering actor; the first 40 iterations "
                           "then train only the critic")
+    amp.add_argument("--task-reward", choices=("vector", "along"),
+                     help="the task reward: the whole velocity against the command "
+                          "('vector', the default) or, as AMP's paper, only the speed along "
+                          "the commanded direction ('along'); a new run only")
     amp.set_defaults(func=_train)
 
     play = sub.add_parser("play", help="a trained policy in the browser viewer (needs "

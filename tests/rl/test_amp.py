@@ -108,9 +108,37 @@ def test_task_reward_is_one_on_the_command_and_falls_off(env):
     vel[:] = (env.direction(heading) * speed[:, None])[:, None, :]
     vel[2] += [0.0, 0.0, 0.5]                 # wrong by 0.5 m/s (z is horizontal, Y up)
     reward, com = np.zeros(N), np.zeros((N, 3))
-    heading_reward(vel, env.model.body_mass, env.up, heading, speed, 2.0, reward, com)
+    heading_reward(vel, env.model.body_mass, env.up, heading, speed, 2.0, False, reward, com)
     np.testing.assert_allclose(reward[:2], 1.0, atol=1e-12)
     assert reward[2] == pytest.approx(math.exp(-2.0 * 0.25))
+    # AMP's form: only the shortfall of the speed along the command counts
+    heading_reward(vel, env.model.body_mass, env.up, heading, speed, 2.0, True, reward, com)
+    along = np.einsum("ij,ij->i", env.direction(heading), vel[:, 0])
+    np.testing.assert_allclose(reward, np.exp(-2.0 * np.maximum(0.0, speed - along) ** 2),
+                               rtol=1e-12)
+    assert reward[2] < 1.0 and along[2] < speed[2]       # the added 0.5 m/s points partly back
+    heading_reward(1.5 * vel[:2], env.model.body_mass, env.up, heading[:2], speed[:2], 2.0,
+                   True, reward[:2], com[:2])
+    np.testing.assert_allclose(reward[:2], 1.0, atol=1e-12)      # faster costs nothing
+
+
+@pytest.mark.parametrize("along", [False, True])
+def test_walking_the_wrong_way_against_standing(env, along):
+    """Under "vector" standing still beats walking 90 degrees off the command; under AMP's
+    "along" both earn the same, and walking 45 degrees off earns more."""
+    nb = env.model.nbody
+    heading, speed = np.zeros(3), np.full(3, 1.25)
+    off = env.direction(np.array([0.0, math.pi / 2, math.pi / 4]))
+    vel = np.zeros((3, nb, 3))
+    vel[1:] = (1.25 * off[1:])[:, None, :]
+    reward, com = np.zeros(3), np.zeros((3, 3))
+    heading_reward(vel, env.model.body_mass, env.up, heading, speed, 1.0, along, reward, com)
+    stand, sideways, diagonal = reward
+    assert stand == pytest.approx(math.exp(-1.25 ** 2))
+    if along:
+        assert sideways == pytest.approx(stand) and diagonal > stand
+    else:
+        assert sideways == pytest.approx(math.exp(-2 * 1.25 ** 2)) and sideways < stand
 
 
 def test_a_command_is_observed_relative_to_the_heading(env):
@@ -171,7 +199,7 @@ def test_clip_transitions_turn_only_the_roots_yaw_rate(env):
     (dict(command_seconds=(0, 1)), "command_seconds"), (dict(max_turn=4.0), "max_turn"),
     (dict(task_scale=0.0), "task_scale"), (dict(holdout=1.0), "holdout"),
     (dict(clips=["no_such_clip.bvh"]), "no_such_clip"), (dict(turn_rate=-0.1), "turn_rate"),
-    (dict(turn_rate=float("nan")), "turn_rate"),
+    (dict(turn_rate=float("nan")), "turn_rate"), (dict(task_reward="speed"), "task_reward"),
 ])
 def test_bad_settings_are_named(bad, match):
     with pytest.raises(tumble.TumbleError, match=match):
@@ -362,7 +390,7 @@ def test_train_amp_from_the_command_line(tmp_path, capsys):
     from tumble.cli import main
     out = tmp_path / "run"
     args = ["train", "amp", "walk", "idle", "--out", str(out), "--envs", "4", "--iterations",
-            "1", "--eval-every", "0", "--no-progress"]
+            "1", "--eval-every", "0", "--no-progress", "--task-reward", "along"]
     assert main(args) == 0
     text = capsys.readouterr().out
     assert "amp 'walk, idle'" in text and "tumble play" in text
@@ -375,4 +403,4 @@ def test_train_amp_from_the_command_line(tmp_path, capsys):
     saved = torch.load(out / "checkpoint.pt", weights_only=False, map_location="cpu")
     assert saved["config"]["learn_std"] is False and saved["config"]["init_std"] == 0.07
     assert TrainConfig.for_task("amp").learn_std           # learnt unless asked
-    assert saved["spec"]["turn_rate"] == 0.8
+    assert saved["spec"]["turn_rate"] == 0.8 and saved["spec"]["task_reward"] == "along"

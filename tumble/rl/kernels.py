@@ -293,12 +293,14 @@ def heading_command(body_quat, root, up, forward, target_heading, target_speed, 
 
 
 @njit(cache=True)
-def heading_reward(body_vel, body_mass, up, target_heading, target_speed, scale, reward,
-                   com_vel):
+def heading_reward(body_vel, body_mass, up, target_heading, target_speed, scale, along_only,
+                   reward, com_vel):
     """Task reward of a commanded heading and speed, ``exp(-scale |v - v* d*|^2)``, with v
     the centre of mass's horizontal velocity (m/s), d* the unit horizontal direction of
-    ``target_heading`` (rad about the vertical, 0 along x) and v* ``target_speed``. Writes
-    ``reward`` (N,) and ``com_vel`` (N, 3) (the centre of mass's velocity)."""
+    ``target_heading`` (rad about the vertical, 0 along x) and v* ``target_speed``; with
+    ``along_only`` AMP's form, ``exp(-scale max(0, v* - d*.v)^2)``: only the speed along d*
+    counts, and going faster than v* costs nothing. Writes ``reward`` (N,) and ``com_vel``
+    (N, 3) (the centre of mass's velocity)."""
     N, nb = body_vel.shape[0], body_vel.shape[1]
     total = 0.0
     for b in range(nb):
@@ -315,9 +317,13 @@ def heading_reward(body_vel, body_mass, up, target_heading, target_speed, scale,
         c = math.cos(target_heading[w])
         s = math.sin(target_heading[w])
         if up == 1:              # heading theta turns x towards -z about y
-            e0 = com_vel[w, 0] - target_speed[w] * c
-            e1 = com_vel[w, 2] + target_speed[w] * s
+            d0, d1, v0, v1 = c, -s, com_vel[w, 0], com_vel[w, 2]
         else:
-            e0 = com_vel[w, 0] - target_speed[w] * c
-            e1 = com_vel[w, 1] - target_speed[w] * s
-        reward[w] = math.exp(-scale * (e0 * e0 + e1 * e1))
+            d0, d1, v0, v1 = c, s, com_vel[w, 0], com_vel[w, 1]
+        if along_only:
+            short = max(0.0, target_speed[w] - (d0 * v0 + d1 * v1))
+            reward[w] = math.exp(-scale * short * short)
+        else:
+            e0 = v0 - target_speed[w] * d0
+            e1 = v1 - target_speed[w] * d1
+            reward[w] = math.exp(-scale * (e0 * e0 + e1 * e1))
