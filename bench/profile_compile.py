@@ -9,8 +9,9 @@ empty directory (cold), recording every ``numba:compile`` event. For each functi
 specialisations were compiled, its inclusive seconds (its own compile with everything it
 compiled on the way: callees are compiled while their caller is typed) and its exclusive
 seconds (inclusive minus the callees'), of which LLVM (Numba's LLVM lock held: optimising
-and emitting machine code; the rest is typing and lowering), and the total. Exclusive time is what compiling that
-function itself costs; a function with many specialisations is a candidate for fewer.
+and emitting machine code; the rest is typing and lowering), and the total. Exclusive time
+is what compiling that function itself costs; a function with many specialisations is a
+candidate for fewer.
 """
 import argparse
 import json
@@ -34,7 +35,8 @@ stack, spans = [], []
 class Profile(event.Listener):
     def on_start(self, ev):
         d = ev.data["dispatcher"]
-        stack.append([f"{d.py_func.__module__}.{d.py_func.__qualname__}", time.perf_counter(), 0.0, 0.0])
+        name = f"{d.py_func.__module__}.{d.py_func.__qualname__}"
+        stack.append([name, time.perf_counter(), 0.0, 0.0])     # name, start, callees, LLVM
 
     def on_end(self, ev):
         name, t0, inner, llvm = stack.pop()

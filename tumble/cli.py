@@ -215,8 +215,8 @@ def _run_options(parser, default_dir, *, envs):
     parser.add_argument("--eval-every", type=_non_negative_int, metavar="K",
                         help="evaluate every K iterations; 0: never (default 50)")
     parser.add_argument("--fixed-std", type=_positive(float), metavar="S",
-                        help="hold the policy's action noise at S instead of learning it "
-                             "(AMP's default: fixed); with --resume it replaces the run's")
+                        help="hold the policy's action noise at S instead of learning it (as "
+                             "the AMP paper does); with --resume it replaces the run's")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("--workers", type=_positive(int), metavar="K",
                         help="collect the samples in K Ray workers of N characters each "

@@ -316,14 +316,15 @@ def heading_reward(body_vel, body_mass, up, target_heading, target_speed, scale,
         com_vel[w, 0], com_vel[w, 1], com_vel[w, 2] = v0 / total, v1 / total, v2 / total
         c = math.cos(target_heading[w])
         s = math.sin(target_heading[w])
+        # d: the commanded direction, h: the horizontal velocity, in the ground's two axes
         if up == 1:              # heading theta turns x towards -z about y
-            d0, d1, v0, v1 = c, -s, com_vel[w, 0], com_vel[w, 2]
+            d0, d1, h0, h1 = c, -s, com_vel[w, 0], com_vel[w, 2]
         else:
-            d0, d1, v0, v1 = c, s, com_vel[w, 0], com_vel[w, 1]
+            d0, d1, h0, h1 = c, s, com_vel[w, 0], com_vel[w, 1]
         if along_only:
-            short = max(0.0, target_speed[w] - (d0 * v0 + d1 * v1))
+            short = max(0.0, target_speed[w] - (d0 * h0 + d1 * h1))
             reward[w] = math.exp(-scale * short * short)
         else:
-            e0 = v0 - target_speed[w] * d0
-            e1 = v1 - target_speed[w] * d1
+            e0 = h0 - target_speed[w] * d0
+            e1 = h1 - target_speed[w] * d1
             reward[w] = math.exp(-scale * (e0 * e0 + e1 * e1))

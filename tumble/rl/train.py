@@ -44,6 +44,11 @@ except ImportError as exc:          # the optional extra is missing
 __all__ = ["TrainConfig", "Trainer", "evaluate", "train"]
 
 
+# AMPEnv settings a run's spec may lack, with what runs from before them had: all joints seen
+# by the discriminator, clips shown as recorded
+_AMP_SETTINGS_BEFORE = {"amp_exclude": (), "turn_rate": 0.0}
+
+
 @dataclass
 class TrainConfig:
     """Everything a training run depends on (saved in its checkpoint).
@@ -394,14 +399,11 @@ class Trainer:
         if resume and ckpt_path.exists():
             saved = torch.load(ckpt_path, weights_only=False, map_location="cpu")
             stored = TrainConfig.from_dict(saved["config"])
-            if stored.task == "amp" and "amp_exclude" not in saved.get("spec", {}) \
-                    and "amp_exclude" not in stored.env_kwargs:
-                # runs from before the discriminator left joints out saw all of them
-                stored.env_kwargs["amp_exclude"] = ()
-            if stored.task == "amp" and "turn_rate" not in saved.get("spec", {}) \
-                    and "turn_rate" not in stored.env_kwargs:
-                # nor were they shown the clips turning
-                stored.env_kwargs["turn_rate"] = 0.0
+            if stored.task == "amp":
+                # AMP settings added since a run began resume as that run had them
+                for key, before in _AMP_SETTINGS_BEFORE.items():
+                    if key not in saved.get("spec", {}) and key not in stored.env_kwargs:
+                        stored.env_kwargs[key] = before
             if config is not None:       # iterations and schedule may change on resume
                 stored.iterations = config.iterations
                 stored.save_every, stored.eval_every = config.save_every, config.eval_every
@@ -454,9 +456,12 @@ class Trainer:
             raise ModelError(f"train: the action noise must be positive and finite, got {std!r}")
         self.config.learn_std, self.config.init_std = False, float(std)
         dist = self.alg.actor.distribution
-        param = dist.std_param if hasattr(dist, "std_param") else dist.log_std_param
+        if hasattr(dist, "std_param"):
+            param, value = dist.std_param, float(std)
+        else:                           # rsl-rl's log-parameterised noise
+            param, value = dist.log_std_param, math.log(std)
         with torch.no_grad():
-            param.fill_(std if hasattr(dist, "std_param") else math.log(std))
+            param.fill_(value)
         param.requires_grad_(False)
         param.grad = None
 

@@ -23,8 +23,9 @@ vector also asks the character to stop drifting sideways); ``task_reward="along"
 target-heading reward, ``exp(-task_scale max(0, v* - d*.v)^2)``, only the speed along d*,
 under which walking the wrong way is never worse than standing still (under "vector",
 standing, 0.21 at 1.25 m/s, beats walking 90 degrees off, 0.04: a policy that cannot yet
-turn learns to stand). Commands change at random times: every ``command_seconds`` (a range, s) the
-heading turns by up to ``max_turn`` rad and a new speed is drawn from ``speed_range``.
+turn learns to stand). Commands change at random times: every ``command_seconds`` (a range,
+s) the heading turns by up to ``max_turn`` rad and a new speed is drawn from
+``speed_range``.
 
 Discriminator observation of a transition (s, s'), ``info["amp_obs"]`` (N, 2F) after every
 step (the ended episode's last transition for worlds that were reset): see
@@ -102,9 +103,9 @@ class AMPEnv(BatchedEnv):
     def __init__(self, num_envs=1, clips=DEFAULT_CLIPS, *, ragdoll=None, control_hz=30,
                  physics_hz=60, contact="pgs", episode_seconds=20.0, action_scale=1.0,
                  speed_range=(0.4, 2.2), command_seconds=(2.0, 5.0), max_turn=math.pi,
-                 task_scale=1.0, task_reward="vector", end_effectors=None, contact_bodies=None, min_root_height=0.3,
-                 holdout=0.1, amp_exclude=("toe",), turn_rate=0.8, seed=None, autoreset=True,
-                 parallel=None):
+                 task_scale=1.0, task_reward="vector", end_effectors=None, contact_bodies=None,
+                 min_root_height=0.3, holdout=0.1, amp_exclude=("toe",), turn_rate=0.8,
+                 seed=None, autoreset=True, parallel=None):
         where = "AMPEnv"
         check_task_settings(where, num_envs, control_hz, physics_hz, episode_seconds)
         if isinstance(clips, (str, bytes)) or not hasattr(clips, "__len__") or len(clips) == 0:
