@@ -67,8 +67,7 @@ def _view(args):
                     contacts=args.contacts, forces=args.forces, joints=args.joints,
                     com=args.com, lighting=args.lighting, verbose=False)
     _steering_controls(viewer, control)
-    print(f"tumble viewer: open {viewer.url} in a browser (Ctrl-C to stop)", flush=True)
-    viewer.serve_forever()
+    viewer.serve_forever(f"tumble viewer: open {viewer.url} in a browser (Ctrl-C to stop)")
     return 0
 
 
@@ -241,8 +240,7 @@ def _play(args):
                     speed=args.speed, control=driver, follow=root, contacts=args.contacts,
                     verbose=False)
     _steering_controls(viewer, driver)          # a steering policy: heading and speed
-    print(f"tumble viewer: open {viewer.url} in a browser (Ctrl-C to stop)", flush=True)
-    viewer.serve_forever()
+    viewer.serve_forever(f"tumble viewer: open {viewer.url} in a browser (Ctrl-C to stop)")
     return 0
 
 

@@ -623,9 +623,14 @@ class Viewer:
             self._gui_frame.value = self._frame
 
     # --------------------------------------------------------------- lifetime
-    def serve_forever(self):
-        """Block until Ctrl-C (or :meth:`close` from another thread), then close."""
+    def serve_forever(self, announce=None):
+        """Block until Ctrl-C (or :meth:`close` from another thread), then close.
+
+        ``announce``, if given, is printed first, inside the Ctrl-C guard: a user who stops
+        the viewer the moment its address appears must not get a traceback."""
         try:
+            if announce:
+                print(announce, flush=True)
             while not self._stop.wait(0.5):
                 pass
         except KeyboardInterrupt:
@@ -662,7 +667,9 @@ def view(source, *, block=True, **kwargs):
     """Open a :class:`Viewer` on ``source`` and print its address; with ``block`` serve
     until Ctrl-C, otherwise return the viewer (call ``close()`` when done)."""
     viewer = Viewer(source, **kwargs)
-    print(f"tumble viewer: open {viewer.url} in a browser (Ctrl-C to stop)", flush=True)
+    announce = f"tumble viewer: open {viewer.url} in a browser (Ctrl-C to stop)"
     if block:
-        viewer.serve_forever()
+        viewer.serve_forever(announce)
+    else:
+        print(announce, flush=True)
     return viewer
