@@ -137,7 +137,10 @@ def _train(args):
     progress = not args.no_progress
     if args.resume:
         # the run goes on as it was configured; only its length and schedule may change
-        trainer = make_trainer(out, None, resume=True, progress=progress, log=print)
+        task_reward = getattr(args, "task_reward", None)
+        overrides = {"task_reward": task_reward} if task_reward else None
+        trainer = make_trainer(out, None, resume=True, progress=progress, log=print,
+                               env_overrides=overrides)
         c = trainer.config
         ignored = [f"{flag} {value}" for flag, value, kept in (
             ("CLIP", args.clip, c.clip), ("--envs", args.envs, c.num_envs),
@@ -348,7 +351,7 @@ def main(argv=None):
     amp.add_argument("--task-reward", choices=("vector", "along"),
                      help="the task reward: the whole velocity against the command "
                           "('vector', the default) or, as AMP's paper, only the speed along "
-                          "the commanded direction ('along'); a new run only")
+                          "the commanded direction ('along'); with --resume it replaces the run's")
     amp.set_defaults(func=_train)
 
     play = sub.add_parser("play", help="a trained policy in the browser viewer (needs "

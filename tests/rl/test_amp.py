@@ -404,3 +404,10 @@ def test_train_amp_from_the_command_line(tmp_path, capsys):
     assert saved["config"]["learn_std"] is False and saved["config"]["init_std"] == 0.07
     assert TrainConfig.for_task("amp").learn_std           # learnt unless asked
     assert saved["spec"]["turn_rate"] == 0.8 and saved["spec"]["task_reward"] == "along"
+    # a resumed run may change its task reward; the change is saved with it
+    assert main(["train", "amp", "--out", str(out), "--resume", "--iterations", "3",
+                 "--task-reward", "vector", "--no-progress"]) == 0
+    saved = torch.load(out / "checkpoint.pt", weights_only=False, map_location="cpu")
+    assert saved["iteration"] == 3 and saved["spec"]["task_reward"] == "vector"
+    assert saved["config"]["env_kwargs"]["task_reward"] == "vector"
+    assert saved["config"]["learn_std"] is False           # the rest as the run had it

@@ -151,7 +151,7 @@ class RayTrainer(Trainer):
     """
 
     def __init__(self, out_dir, config=None, *, workers=2, address=None, worker_cpus=1,
-                 resume=False, progress=True, log=print):
+                 resume=False, progress=True, log=print, env_overrides=None):
         if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
             raise ModelError(f"RayTrainer: workers must be a positive integer, got {workers!r}")
         if isinstance(worker_cpus, bool) or not isinstance(worker_cpus, (int, np.integer)) \
@@ -164,7 +164,8 @@ class RayTrainer(Trainer):
         self.worker_restarts = 0
         self._workers = []
         self._generation = [0] * self.num_workers
-        super().__init__(out_dir, config, resume=resume, progress=progress, log=log)
+        super().__init__(out_dir, config, resume=resume, progress=progress, log=log,
+                         env_overrides=env_overrides)
 
     # -- the sampler: workers ------------------------------------------------------------
     def _make_sampler(self):

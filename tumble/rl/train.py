@@ -389,7 +389,10 @@ class Trainer:
     """A PPO training run in ``out_dir`` (see the module docs); ``run()`` trains,
     ``Trainer(out_dir, resume=True)`` picks a run up from its checkpoint."""
 
-    def __init__(self, out_dir, config=None, *, resume=False, progress=True, log=print):
+    def __init__(self, out_dir, config=None, *, resume=False, progress=True, log=print,
+                 env_overrides=None):
+        """``env_overrides`` (resume only): environment settings that replace the run's from
+        here on (``{"task_reward": "along"}``); the networks carry over, the critic adapts."""
         self.out_dir = Path(out_dir)
         self.out_dir.mkdir(parents=True, exist_ok=True)
         self.progress = progress
@@ -407,10 +410,15 @@ class Trainer:
             if config is not None:       # iterations and schedule may change on resume
                 stored.iterations = config.iterations
                 stored.save_every, stored.eval_every = config.save_every, config.eval_every
+            if env_overrides:
+                stored.env_kwargs = {**stored.env_kwargs, **env_overrides}
             config = stored
         elif resume:
             raise ModelError(f"train: nothing to resume in {str(self.out_dir)!r} (no "
                              f"checkpoint.pt)")
+        elif env_overrides:
+            raise ModelError("train: env_overrides change a resumed run; give a new run's "
+                             "settings in its TrainConfig.env_kwargs")
         self.config = config or TrainConfig()
         c = self.config
         torch.set_num_threads(c.threads)
