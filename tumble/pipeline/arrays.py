@@ -44,7 +44,8 @@ StateArrays = namedtuple("StateArrays", [
     "joint_force",     # (nworld, njoint, 3) force of the joint on its child, N, world
     "joint_torque",    # (nworld, njoint, 3) torque on the child about the anchor, N m, world
     "contact_count",   # (nworld,) int64 contacts found in the last step
-    "lcp_fallbacks",   # (nworld,) int64 steps where Lemke failed and PGS stood in
+    "lcp_fallbacks",   # (nworld,) int64 steps where PGS stood in for Lemke
+    "lcp_backoff",     # (nworld, 2) int64 steps left that skip Lemke, and the skip window
     "stage_ticks",     # (nworld, len(STAGES)) int64 time in each stage (_jit.ticks units)
 ])
 
@@ -79,6 +80,7 @@ def make_state_arrays(nworld, nbody, njoint, nrow):
         joint_qd=np.zeros((nw, nj, 3)), joint_qrel=np.zeros((nw, nj, 4)),
         joint_force=np.zeros((nw, nj, 3)), joint_torque=np.zeros((nw, nj, 3)),
         contact_count=np.zeros(nw, np.int64), lcp_fallbacks=np.zeros(nw, np.int64),
+        lcp_backoff=np.zeros((nw, 2), np.int64),
         stage_ticks=np.zeros((nw, len(STAGES)), np.int64))
 
 

@@ -219,7 +219,8 @@ def step_worlds(m, s, c, con, pairs, n, o, work):
                 if not solve_fast(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o,
                                   caches, work.fast):
                     sw.lcp_fallbacks[0] += solve_rows(m, rows, nrow, ncon, inv_inertia, vel,
-                                                      angvel, imp, o, caches)
+                                                      angvel, imp, o, caches,
+                                                      sw.lcp_backoff)
                 keep_impulses(m, sw, conw, ncon, nrow, o, work, k == n - 1)
                 t = _lap(o, sw.stage_ticks, STAGE_SOLVE, t)
             integrate_positions(m, pos, quat, vel, angvel, o.dt, o.quat_integration)

@@ -63,7 +63,10 @@ class QueryMixin:
 
     @property
     def lcp_fallbacks(self):
-        """Steps (since the world was made) in which Lemke failed and PGS solved instead."""
+        """Steps (since the world was made) in which PGS solved the contacts instead of
+        Lemke: Lemke failed, or the world was backing off after failures (after a failure
+        a world skips Lemke for 1, 2, 4, ... up to 32 steps while it keeps failing;
+        ``tumble.pipeline.solve``)."""
         return int(self._state.lcp_fallbacks.sum())
 
     def raycast(self, origin, direction, max_dist=1e6, *, exclude_body=None, world=None):

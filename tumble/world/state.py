@@ -177,6 +177,7 @@ class StateMixin:
             if n:
                 mine[:, :n] = contacts[k][:, :n]
         s.contact_count[:] = count
+        s.lcp_backoff[:] = 0        # a restored state tries Lemke at once, as a fresh one
         self._update_joint_coordinates()
 
     def set_body_state(self, body_pos, body_quat, body_vel, body_angvel, *, worlds=None):
@@ -237,6 +238,7 @@ class StateMixin:
                       "joint_torque"):
             self._array(field)[idx] = 0.0
         s.contact_count[idx] = 0
+        s.lcp_backoff[idx] = 0
         self._contacts.impulse[idx] = 0.0
         self._update_joint_coordinates(idx)
 

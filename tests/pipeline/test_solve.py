@@ -1,0 +1,80 @@
+"""The solve stage's choice of method (``tumble.pipeline.solve``): Lemke's back-off.
+
+A world whose exact (Lemke) solve fails gets PGS at once for 1, 2, 4, ... up to
+``LEMKE_BACKOFF_MAX`` steps while Lemke keeps failing, and Lemke every step again once it
+succeeds. The case that needs it: the course ragdoll, servos on, lying on the ground at
+60 Hz (64 redundant contacts, on which Lemke's answer fails its verification)."""
+import numpy as np
+import pytest
+
+import tumble
+from tumble.character.ragdoll import games105_ragdoll
+from tumble.pipeline.solve import LEMKE_BACKOFF_MAX
+
+
+@pytest.fixture(scope="module")
+def fallen():
+    """The course ragdoll, servos holding its pose, knocked over and lying on the ground
+    (contact='lcp', 1/60 s), and its per-step record over 100 steps on the ground:
+    (fallbacks added, steps left to skip, window) after each step."""
+    w = games105_ragdoll().make_world(dt=1 / 60, contact="lcp")
+    for j in w.model.joint_names[1:]:
+        w.set_pd_gains(j, 500.0, 50.0)
+    w.body_vel[:, 0] = 2.0                        # knocked over forwards
+    w.step(240)
+    record = []
+    for _ in range(100):
+        before = w.lcp_fallbacks
+        w.step(1)
+        left, window = w.state_arrays.lcp_backoff[0]
+        record.append((w.lcp_fallbacks - before, int(left), int(window)))
+    return w, np.array(record)
+
+
+def test_lemke_backs_off_on_a_heap_of_contacts(fallen):
+    w, rec = fallen
+    assert w.state_arrays.contact_count[0] >= 20            # lying down, not standing
+    attempts = failures = 0
+    prev_left, prev_window = rec[0][1], rec[0][2]
+    for added, left, window in rec[1:]:
+        if prev_left > 0:                 # backing off: PGS without trying Lemke
+            assert added == 1 and left == prev_left - 1 and window == prev_window
+        else:                             # Lemke tried: solved (window reset) or failed
+            attempts += 1
+            if added == 0:
+                assert left == 0 and window == 0
+            else:
+                failures += 1
+                assert window == min(max(2 * prev_window, 1), LEMKE_BACKOFF_MAX)
+                assert left == window
+        prev_left, prev_window = left, window
+    # Lemke is attempted on a few steps only (it fails on nearly every one here)
+    assert failures >= 1 and attempts <= 15
+    assert 0 <= rec[:, 1].max() <= LEMKE_BACKOFF_MAX
+
+
+def test_the_heap_stays_at_rest_under_the_back_off(fallen):
+    w, _ = fallen
+    speed = np.linalg.norm(w.body_vel, axis=-1)
+    assert np.all(np.isfinite(speed)) and speed.max() < 0.5     # m/s: lying, not jittering
+
+
+def test_a_restored_state_tries_lemke_at_once(fallen):
+    w, _ = fallen
+    state = w.get_state()
+    w.state_arrays.lcp_backoff[:] = (5, 8)
+    w.set_state(state)
+    assert np.all(w.state_arrays.lcp_backoff == 0)
+    w.state_arrays.lcp_backoff[:] = (5, 8)
+    w.reset()
+    assert np.all(w.state_arrays.lcp_backoff == 0)
+
+
+def test_lemke_that_succeeds_never_backs_off():
+    b = tumble.ModelBuilder()
+    b.add_geom(None, "plane")
+    box = b.add_body("box", pos=(0, 0, 0.1), mass=1.0, inertia=(0.01, 0.01, 0.01))
+    b.add_geom(box, "box", size=(0.1, 0.1, 0.1))
+    w = tumble.World(b.build(), dt=1 / 60)
+    w.step(60)
+    assert w.lcp_fallbacks == 0 and np.all(w.state_arrays.lcp_backoff == 0)
