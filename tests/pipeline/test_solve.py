@@ -1,8 +1,8 @@
 """The solve stage's choice of method (``tumble.pipeline.solve``): Lemke's back-off.
 
 A world whose exact (Lemke) solve fails gets PGS at once for 1, 2, 4, ... up to
-``LEMKE_BACKOFF_MAX`` steps while Lemke keeps failing, and Lemke every step again once it
-succeeds. The case that needs it: the course ragdoll, servos on, lying on the ground at
+``LEMKE_BACKOFF_MAX`` steps while Lemke keeps failing, and Lemke every step again after an
+exact solve. The case that needs it: the course ragdoll, servos on, lying on the ground at
 60 Hz (64 redundant contacts, on which Lemke's answer fails its verification)."""
 import numpy as np
 import pytest
@@ -37,16 +37,16 @@ def test_lemke_backs_off_on_a_heap_of_contacts(fallen):
     attempts = failures = 0
     prev_left, prev_window = rec[0][1], rec[0][2]
     for added, left, window in rec[1:]:
-        if prev_left > 0:                 # backing off: PGS without trying Lemke
-            assert added == 1 and left == prev_left - 1 and window == prev_window
-        else:                             # Lemke tried: solved (window reset) or failed
+        if added == 0:                    # solved exactly (the fast path or Lemke): reset
+            assert left == 0 and window == 0
+            attempts += prev_left == 0
+        elif prev_left > 0:               # backing off: PGS without trying Lemke
+            assert left == prev_left - 1 and window == prev_window
+        else:                             # Lemke tried and failed: the window doubles
             attempts += 1
-            if added == 0:
-                assert left == 0 and window == 0
-            else:
-                failures += 1
-                assert window == min(max(2 * prev_window, 1), LEMKE_BACKOFF_MAX)
-                assert left == window
+            failures += 1
+            assert window == min(max(2 * prev_window, 1), LEMKE_BACKOFF_MAX)
+            assert left == window
         prev_left, prev_window = left, window
     # Lemke is attempted on a few steps only (it fails on nearly every one here)
     assert failures >= 1 and attempts <= 15

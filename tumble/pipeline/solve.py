@@ -8,11 +8,12 @@ common case (a character on exact contacts) without allocating.
 
 Back-off: a world whose Lemke solve failed skips Lemke (PGS at once) for the next 1, 2, 4,
 ... up to ``LEMKE_BACKOFF_MAX`` steps while it keeps failing, and tries it every step
-again after a success. A pile of redundant contacts (a character lying on the ground:
+again after an exact solve (Lemke's, or ``solve_fast``'s, which resets the back-off). A pile of redundant contacts (a character lying on the ground:
 64 contacts, every face's corners) makes Lemke fail step after step, each failure costing
 several times a PGS solve (measured: 8-9 ms for Lemke against 1.6 ms for PGS on the fallen
 course ragdoll); the back-off keeps that cost to one attempt in ``LEMKE_BACKOFF_MAX + 1``
-steps. ``solve_fast`` (the exact common case, no pivoting) is tried on every step.
+steps. ``solve_fast`` (the exact common case, no pivoting) is tried on every step: a
+character that gets up from the heap is solved exactly again at once.
 """
 import numpy as np
 from numba import njit
@@ -26,7 +27,7 @@ from .solvers.tree import make_plan_cache, plan_capacity
 
 
 # Most steps a world skips Lemke after failures in a row (the window doubles up to it).
-LEMKE_BACKOFF_MAX = 32
+LEMKE_BACKOFF_MAX = 128
 
 
 @njit(cache=True)

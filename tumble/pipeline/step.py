@@ -216,8 +216,11 @@ def step_worlds(m, s, c, con, pairs, n, o, work):
                 build_rows(m, sw, cw, conw, ncon, nrow, drive, o, work)
                 t = _lap(o, sw.stage_ticks, STAGE_ROWS, t)
                 # solve
-                if not solve_fast(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o,
-                                  caches, work.fast):
+                if solve_fast(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o, caches,
+                              work.fast):
+                    sw.lcp_backoff[0] = 0           # solved exactly: no back-off from Lemke
+                    sw.lcp_backoff[1] = 0
+                else:
                     sw.lcp_fallbacks[0] += solve_rows(m, rows, nrow, ncon, inv_inertia, vel,
                                                       angvel, imp, o, caches,
                                                       sw.lcp_backoff)

@@ -65,7 +65,7 @@ class QueryMixin:
     def lcp_fallbacks(self):
         """Steps (since the world was made) in which PGS solved the contacts instead of
         Lemke: Lemke failed, or the world was backing off after failures (after a failure
-        a world skips Lemke for 1, 2, 4, ... up to 32 steps while it keeps failing;
+        a world skips Lemke for 1, 2, 4, ... up to 128 steps while it keeps failing;
         ``tumble.pipeline.solve``)."""
         return int(self._state.lcp_fallbacks.sum())
 
