@@ -67,7 +67,7 @@ def _view(args):
                     contacts=args.contacts, forces=args.forces, joints=args.joints,
                     com=args.com, lighting=args.lighting, verbose=False)
     _steering_controls(viewer, control)
-    viewer.serve_forever(f"tumble viewer: open {viewer.url} in a browser (Ctrl-C to stop)")
+    viewer.serve_forever(announce=True)
     return 0
 
 
@@ -243,7 +243,7 @@ def _play(args):
                     speed=args.speed, control=driver, follow=root, contacts=args.contacts,
                     verbose=False)
     _steering_controls(viewer, driver)          # a steering policy: heading and speed
-    viewer.serve_forever(f"tumble viewer: open {viewer.url} in a browser (Ctrl-C to stop)")
+    viewer.serve_forever(announce=True)
     return 0
 
 

@@ -623,14 +623,20 @@ class Viewer:
             self._gui_frame.value = self._frame
 
     # --------------------------------------------------------------- lifetime
-    def serve_forever(self, announce=None):
+    @property
+    def address_line(self):
+        """What the command line prints for a user: where to open the viewer."""
+        return f"tumble viewer: open {self.url} in a browser (Ctrl-C to stop)"
+
+    def serve_forever(self, announce=False):
         """Block until Ctrl-C (or :meth:`close` from another thread), then close.
 
-        ``announce``, if given, is printed first, inside the Ctrl-C guard: a user who stops
-        the viewer the moment its address appears must not get a traceback."""
+        With ``announce`` the ``address_line`` is printed first, inside the Ctrl-C guard: a
+        user who stops the viewer the moment its address appears must not get a
+        traceback."""
         try:
             if announce:
-                print(announce, flush=True)
+                print(self.address_line, flush=True)
             while not self._stop.wait(0.5):
                 pass
         except KeyboardInterrupt:
@@ -667,9 +673,8 @@ def view(source, *, block=True, **kwargs):
     """Open a :class:`Viewer` on ``source`` and print its address; with ``block`` serve
     until Ctrl-C, otherwise return the viewer (call ``close()`` when done)."""
     viewer = Viewer(source, **kwargs)
-    announce = f"tumble viewer: open {viewer.url} in a browser (Ctrl-C to stop)"
     if block:
-        viewer.serve_forever(announce)
+        viewer.serve_forever(announce=True)
     else:
-        print(announce, flush=True)
+        print(viewer.address_line, flush=True)
     return viewer

@@ -65,8 +65,8 @@ class QueryMixin:
     def lcp_fallbacks(self):
         """Steps (since the world was made) in which PGS solved the contacts instead of
         Lemke: Lemke failed, or the world was backing off after failures (after a failure
-        a world skips Lemke for 1, 2, 4, ... up to 128 steps while it keeps failing;
-        ``tumble.pipeline.solve``)."""
+        a world skips Lemke for 1, 2, 4, ... up to ``solve.LEMKE_BACKOFF_MAX`` steps while
+        it keeps failing; ``tumble.pipeline.solve``)."""
         return int(self._state.lcp_fallbacks.sum())
 
     def raycast(self, origin, direction, max_dist=1e6, *, exclude_body=None, world=None):

@@ -531,3 +531,4 @@ def test_box_rests_with_warm_started_solves():
     assert abs(w.body_pos[0][2] - 0.1) < 1e-3
     assert np.abs(w.body_vel[0]).max() < 1e-9
     assert w.lcp_fallbacks == 0                  # every solve exact (no PGS stand-in)
+    assert np.all(w.state_arrays.lcp_backoff == 0)      # so no back-off from Lemke
