@@ -5,6 +5,7 @@ policy file is one), ``tumble train imitate CLIP`` trains a policy (needs ``tumb
 and ``tumble play POLICY`` shows it in the browser viewer."""
 import argparse
 import importlib.util
+import math
 import os
 import sys
 
@@ -135,10 +136,11 @@ def _train(args):
     out = args.out or os.path.join("runs", f"{args.task}-{stem}")
     checkpoint = os.path.join(out, "checkpoint.pt")
     progress = not args.no_progress
+    env_settings = _amp_env_settings(args) if args.task == "amp" else {}
     if args.resume:
-        # the run goes on as it was configured; only its length and schedule may change
-        task_reward = getattr(args, "task_reward", None)
-        overrides = {"task_reward": task_reward} if task_reward else None
+        # the run goes on as it was configured; only its length and schedule (and the AMP
+        # command settings, a curriculum) may change
+        overrides = env_settings or None
         trainer = make_trainer(out, None, resume=True, progress=progress, log=print,
                                env_overrides=overrides)
         c = trainer.config
@@ -171,8 +173,8 @@ def _train(args):
         if args.task == "amp":
             if args.init_from:
                 given["init_from"] = args.init_from
-            if args.task_reward:
-                given["env_kwargs"] = {"task_reward": args.task_reward}
+            if env_settings:
+                given["env_kwargs"] = env_settings
             config = TrainConfig.for_task("amp", clips=clips, **given)
         else:
             config = TrainConfig.for_task("imitate", clip=clip, **given)
@@ -268,6 +270,42 @@ def _positive(kind):
     return parse
 
 
+def _amp_env_settings(args):
+    """The AMPEnv keywords the command line sets: task reward and the random commands."""
+    settings = {}
+    if args.task_reward:
+        settings["task_reward"] = args.task_reward
+    if args.max_turn is not None:
+        settings["max_turn"] = math.radians(args.max_turn)
+    if args.command_seconds is not None:
+        settings["command_seconds"] = tuple(args.command_seconds)
+    if args.speed_range is not None:
+        settings["speed_range"] = tuple(args.speed_range)
+    return settings
+
+
+def _degrees_in(low, high):
+    def parse(text):
+        try:
+            v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected degrees, got {text!r}")
+        if not low <= v <= high:
+            raise argparse.ArgumentTypeError(f"must be in [{low:g}, {high:g}], got {text!r}")
+        return v
+    return parse
+
+
+def _non_negative_float(text):
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}")
+    if not (math.isfinite(v) and v >= 0):
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {text!r}")
+    return v
+
+
 def _non_negative_int(text):
     try:
         v = int(text)
@@ -348,10 +386,21 @@ def main(argv=None):
                      help="start from an imitation policy (a file or a shipped name: 'walk'), "
                           "behaviour-cloned into the steering actor; the first 40 iterations "
                           "then train only the critic")
-    amp.add_argument("--task-reward", choices=("vector", "along"),
+    amp.add_argument("--task-reward", choices=("vector", "along", "speed"),
                      help="the task reward: the whole velocity against the command "
-                          "('vector', the default) or, as AMP's paper, only the speed along "
-                          "the commanded direction ('along'); with --resume it replaces the run's")
+                          "('vector', the default), as AMP's paper only a shortfall of the "
+                          "speed along the commanded direction ('along'), or that speed "
+                          "matched both ways ('speed')")
+    amp.add_argument("--max-turn", type=_degrees_in(0.0, 180.0), metavar="DEG",
+                     help="largest heading change of a random command (default 180)")
+    amp.add_argument("--command-seconds", type=_non_negative_float, nargs=2,
+                     metavar=("LOW", "HIGH"),
+                     help="seconds between random command changes, drawn uniformly "
+                          "(default 2 5)")
+    amp.add_argument("--speed-range", type=_non_negative_float, nargs=2, metavar=("LOW", "HIGH"),
+                     help="commanded speeds (m/s), drawn uniformly (default 0.4 2.2); these "
+                          "four settings, given with --resume, replace the run's from then on "
+                          "(a curriculum)")
     amp.set_defaults(func=_train)
 
     play = sub.add_parser("play", help="a trained policy in the browser viewer (needs "

@@ -84,6 +84,8 @@ def test_sizes_and_spec(env):
     spec = env.spec()
     assert spec["observation_size"] == 303 and spec["action_size"] == 45
     assert spec["body_names"] == list(m.body_names) and spec["control_hz"] == 30
+    # joints projected back together past 1 mm, not the World's 0.05 mm (the docs' why)
+    assert env.world.options.projection_tolerance == spec["projection_tolerance"] == 1e-3
     # the reward weights are DeepMimic's, normalised
     assert env.reward_weights.sum() == pytest.approx(1.0)
 

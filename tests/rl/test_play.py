@@ -54,6 +54,7 @@ def test_the_driver_makes_the_character_walk_with_the_clip(policy_file):
     world, driver, env = policy_world(policy_file, seed=0)
     assert isinstance(driver, PolicyDriver) and world is env.world and world.nworld == 1
     assert driver.env.substeps == 2 and world.contact == "lcp"
+    assert world.options.projection_tolerance == 1e-3          # as the policy was trained
     c0 = driver.clip_time
     rec = Recorder(world)
     rec.run(1.0, fps=30, control=driver)

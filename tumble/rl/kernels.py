@@ -292,15 +292,20 @@ def heading_command(body_quat, root, up, forward, target_heading, target_speed, 
         obs[w, start + 2] = target_speed[w]
 
 
+HEADING_REWARD_MODES = ("vector", "along", "speed")
+
+
 @njit(cache=True)
-def heading_reward(body_vel, body_mass, up, target_heading, target_speed, scale, along_only,
+def heading_reward(body_vel, body_mass, up, target_heading, target_speed, scale, mode,
                    reward, com_vel):
-    """Task reward of a commanded heading and speed, ``exp(-scale |v - v* d*|^2)``, with v
-    the centre of mass's horizontal velocity (m/s), d* the unit horizontal direction of
-    ``target_heading`` (rad about the vertical, 0 along x) and v* ``target_speed``; with
-    ``along_only`` AMP's form, ``exp(-scale max(0, v* - d*.v)^2)``: only the speed along d*
-    counts, and going faster than v* costs nothing. Writes ``reward`` (N,) and ``com_vel``
-    (N, 3) (the centre of mass's velocity)."""
+    """Task reward of a commanded heading and speed, with v the centre of mass's horizontal
+    velocity (m/s), d* the unit horizontal direction of ``target_heading`` (rad about the
+    vertical, 0 along x) and v* ``target_speed``. ``mode`` (HEADING_REWARD_MODES) 0,
+    "vector": ``exp(-scale |v - v* d*|^2)``; 1, "along", AMP's form:
+    ``exp(-scale max(0, v* - d*.v)^2)``, only the speed along d* counts and going faster
+    than v* costs nothing; 2, "speed": ``exp(-scale (v* - d*.v)^2)``, the speed along d*
+    matched both ways (sideways drift is free, as under "along"). Writes ``reward`` (N,) and
+    ``com_vel`` (N, 3) (the centre of mass's velocity)."""
     N, nb = body_vel.shape[0], body_vel.shape[1]
     total = 0.0
     for b in range(nb):
@@ -321,9 +326,12 @@ def heading_reward(body_vel, body_mass, up, target_heading, target_speed, scale,
             d0, d1, h0, h1 = c, -s, com_vel[w, 0], com_vel[w, 2]
         else:
             d0, d1, h0, h1 = c, s, com_vel[w, 0], com_vel[w, 1]
-        if along_only:
+        if mode == 1:
             short = max(0.0, target_speed[w] - (d0 * h0 + d1 * h1))
             reward[w] = math.exp(-scale * short * short)
+        elif mode == 2:
+            miss = target_speed[w] - (d0 * h0 + d1 * h1)
+            reward[w] = math.exp(-scale * miss * miss)
         else:
             e0 = h0 - target_speed[w] * d0
             e1 = h1 - target_speed[w] * d1

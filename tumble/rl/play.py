@@ -284,7 +284,8 @@ def policy_world(policy, *, fall_delay=1.0, restart_after=None, seed=None, **ove
     if task != "imitate":
         raise ModelError(f"policy_world: the policy is for the task {spec.get('task')!r}; "
                          f"this tumble plays 'imitate' and 'amp' policies")
-    kwargs = _env_settings(spec, ("control_hz", "physics_hz", "contact", "residual"))
+    kwargs = _env_settings(spec, ("control_hz", "physics_hz", "contact", "residual",
+                                   "projection_tolerance"))
     clip = overrides.pop("clip", spec.get("clip", "walk"))
     kwargs.update(overrides)
     kwargs.setdefault("seed", seed)
@@ -312,7 +313,8 @@ def _steering_world(policy, *, fall_delay, restart_after, seed, **overrides):
     from .tasks.amp import AMPEnv
 
     spec = policy.spec
-    kwargs = _env_settings(spec, ("control_hz", "physics_hz", "contact"))
+    kwargs = _env_settings(spec, ("control_hz", "physics_hz", "contact",
+                                   "projection_tolerance"))
     clips = overrides.pop("clips", spec.get("clips"))
     kwargs.update(overrides)
     kwargs.setdefault("seed", seed)

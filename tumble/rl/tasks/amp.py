@@ -23,9 +23,12 @@ vector also asks the character to stop drifting sideways); ``task_reward="along"
 target-heading reward, ``exp(-task_scale max(0, v* - d*.v)^2)``, only the speed along d*,
 under which walking the wrong way is never worse than standing still (under "vector",
 standing, 0.21 at 1.25 m/s, beats walking 90 degrees off, 0.04: a policy that cannot yet
-turn learns to stand). Commands change at random times: every ``command_seconds`` (a range,
-s) the heading turns by up to ``max_turn`` rad and a new speed is drawn from
-``speed_range``.
+turn learns to stand); ``task_reward="speed"``: ``exp(-task_scale (v* - d*.v)^2)``, the speed
+along d* matched both ways (as "along", walking 90 degrees off earns what standing does, but
+going faster than commanded costs as much as going slower: under "along" a policy that
+walks at one brisk pace meets every slower command). Commands change at random times:
+every ``command_seconds`` (a range, s) the heading turns by up to ``max_turn`` rad and a
+new speed is drawn from ``speed_range``.
 
 Discriminator observation of a transition (s, s'), ``info["amp_obs"]`` (N, 2F) after every
 step (the ended episode's last transition for worlds that were reset): see
@@ -50,8 +53,9 @@ from ...errors import ModelError
 from ...character.ragdoll import Ragdoll, games105_ragdoll
 from ...math import quat_np as Q
 from ..env import BatchedEnv, check_task_settings
-from ..kernels import (AMP_JOINT_FEATURES, AMP_ROOT_FEATURES, BODY_OBS, amp_features, fallen,
-                       heading_command, heading_reward, observe, pd_targets)
+from ..kernels import (AMP_JOINT_FEATURES, AMP_ROOT_FEATURES, BODY_OBS, HEADING_REWARD_MODES,
+                       amp_features, fallen, heading_command, heading_reward, observe,
+                       pd_targets)
 from ..reference import ReferenceMotion, ReferenceSample
 from .imitation import _body_set, action_layout, deepmimic_gains, load_clip
 
@@ -86,8 +90,8 @@ class AMPEnv(BatchedEnv):
     action_scale : rad per unit action (scalar or one per component).
     speed_range : commanded speeds (m/s) drawn uniformly; command_seconds : (low, high) s
         between command changes; max_turn : largest heading change of a command (rad).
-    task_scale : the task reward's scale (s^2/m^2); task_reward : "vector" or "along" (the
-        module docs).
+    task_scale : the task reward's scale (s^2/m^2); task_reward : "vector", "along" or "speed"
+        (the module docs).
     end_effectors, contact_bodies, min_root_height : as in the imitation task.
     holdout : the fraction at the end of every clip kept out of
         ``reference_transitions`` (for measuring the discriminator on unseen frames).
@@ -97,7 +101,7 @@ class AMPEnv(BatchedEnv):
         root's angular velocity about the vertical (the only feature a steady turn about the
         root changes: everything else is in the heading frame). The course's clips go
         straight ahead; without it turning looks unlike them. 0: as recorded.
-    seed, autoreset, parallel : as in the imitation task.
+    projection_tolerance, seed, autoreset, parallel : as in the imitation task.
     """
 
     def __init__(self, num_envs=1, clips=DEFAULT_CLIPS, *, ragdoll=None, control_hz=30,
@@ -105,7 +109,7 @@ class AMPEnv(BatchedEnv):
                  speed_range=(0.4, 2.2), command_seconds=(2.0, 5.0), max_turn=math.pi,
                  task_scale=1.0, task_reward="vector", end_effectors=None, contact_bodies=None,
                  min_root_height=0.3, holdout=0.1, amp_exclude=("toe",), turn_rate=0.8,
-                 seed=None, autoreset=True, parallel=None):
+                 projection_tolerance=1e-3, seed=None, autoreset=True, parallel=None):
         where = "AMPEnv"
         check_task_settings(where, num_envs, control_hz, physics_hz, episode_seconds)
         if isinstance(clips, (str, bytes)) or not hasattr(clips, "__len__") or len(clips) == 0:
@@ -119,9 +123,9 @@ class AMPEnv(BatchedEnv):
             raise ModelError(f"{where}: max_turn must be in [0, pi] rad, got {max_turn!r}")
         if not (np.isfinite(task_scale) and task_scale > 0):
             raise ModelError(f"{where}: task_scale must be > 0, got {task_scale!r}")
-        if task_reward not in ("vector", "along"):
-            raise ModelError(f"{where}: task_reward must be 'vector' or 'along', got "
-                             f"{task_reward!r}")
+        if task_reward not in HEADING_REWARD_MODES:
+            raise ModelError(f"{where}: task_reward must be one of {HEADING_REWARD_MODES}, "
+                             f"got {task_reward!r}")
         self.task_reward = task_reward
         if not (np.isfinite(holdout) and 0 <= holdout < 1):
             raise ModelError(f"{where}: holdout must be in [0, 1), got {holdout!r}")
@@ -178,7 +182,8 @@ class AMPEnv(BatchedEnv):
         self._mean_quat, self._mean_q = self._mean_pose()
         self.forward = self._forward_angle()
         world = self.ragdoll.make_world(dt=1.0 / physics_hz, contact=contact, nworld=int(num_envs),
-                                        parallel=parallel)
+                                        parallel=parallel,
+                                        projection_tolerance=projection_tolerance)
         world.joint_kp = kp
         world.joint_kd = kd
         N = int(num_envs)
@@ -295,7 +300,8 @@ class AMPEnv(BatchedEnv):
     def _evaluate(self, reward, terminated):
         self._features(self._feat_next)
         heading_reward(self._vel, self.model.body_mass, self.up, self.target_heading,
-                       self.target_speed, self.task_scale, self.task_reward == "along", reward,
+                       self.target_speed, self.task_scale,
+                       HEADING_REWARD_MODES.index(self.task_reward), reward,
                        self.com_velocity)
         self._task[:] = reward
         ground = np.reshape(self.world.ground_contacts(), (self.num_envs, self.model.nbody))
@@ -411,6 +417,7 @@ class AMPEnv(BatchedEnv):
             "task_reward": self.task_reward,
             "control_hz": self.control_hz, "physics_hz": self.physics_hz,
             "action_scale": self.action_scale.tolist(), "contact": self.world.contact,
+            "projection_tolerance": float(self.world.options.projection_tolerance),
         }
 
 
