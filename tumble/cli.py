@@ -216,7 +216,7 @@ def _run_options(parser, default_dir, *, envs):
     parser.add_argument("--resume", action="store_true",
                         help="continue the run in DIR from its checkpoint")
     parser.add_argument("--seed", type=int, metavar="S", help="random seed (default 0)")
-    parser.add_argument("--eval-every", type=_non_negative_int, metavar="K",
+    parser.add_argument("--eval-every", type=_non_negative(int), metavar="K",
                         help="evaluate every K iterations; 0: never (default 50)")
     parser.add_argument("--fixed-std", type=_positive(float), metavar="S",
                         help="hold the policy's action noise at S instead of learning it (as "
@@ -296,24 +296,19 @@ def _degrees_in(low, high):
     return parse
 
 
-def _non_negative_float(text):
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}")
-    if not (math.isfinite(v) and v >= 0):
-        raise argparse.ArgumentTypeError(f"must be >= 0, got {text!r}")
-    return v
+def _non_negative(kind):
+    """An argparse type: a finite number of ``kind`` (int or float) >= 0."""
+    what = "an integer" if kind is int else "a number"
 
-
-def _non_negative_int(text):
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}")
-    if v < 0:
-        raise argparse.ArgumentTypeError(f"must be >= 0, got {text!r}")
-    return v
+    def parse(text):
+        try:
+            v = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}")
+        if not (math.isfinite(v) and v >= 0):
+            raise argparse.ArgumentTypeError(f"must be >= 0, got {text!r}")
+        return v
+    return parse
 
 
 def main(argv=None):
@@ -393,11 +388,11 @@ def main(argv=None):
                           "matched both ways ('speed')")
     amp.add_argument("--max-turn", type=_degrees_in(0.0, 180.0), metavar="DEG",
                      help="largest heading change of a random command (default 180)")
-    amp.add_argument("--command-seconds", type=_non_negative_float, nargs=2,
+    amp.add_argument("--command-seconds", type=_non_negative(float), nargs=2,
                      metavar=("LOW", "HIGH"),
                      help="seconds between random command changes, drawn uniformly "
                           "(default 2 5)")
-    amp.add_argument("--speed-range", type=_non_negative_float, nargs=2, metavar=("LOW", "HIGH"),
+    amp.add_argument("--speed-range", type=_non_negative(float), nargs=2, metavar=("LOW", "HIGH"),
                      help="commanded speeds (m/s), drawn uniformly (default 0.4 2.2); these "
                           "four settings, given with --resume, replace the run's from then on "
                           "(a curriculum)")

@@ -19,7 +19,7 @@ from numba import njit
 from .._jit import ArgBox, assign_arrays, copy_arrays, noalloc
 from ..model.types import STATIC
 from .checks import DRIVE_OK, STATE_OK, check_drives, check_state
-from .parallel import step_worlds_parallel
+from .parallel import step_worlds_parallel, world_works_fit
 from .step import STEP_OK, step_worlds
 from .work import work_fits
 
@@ -99,14 +99,17 @@ def step_checked(m, s, c, con, pairs, n, o, ball, work):
 
 
 @njit(cache=True)
-def step_checked_parallel(m, s, c, con, pairs, n, o, ball):
-    """``step_checked`` with the worlds spread over Numba's threads (each run of worlds
-    makes its own scratch memory, so there is no ``work`` and no CALL_NEW_WORK)."""
+def step_checked_parallel(m, s, c, con, pairs, n, o, ball, works):
+    """``step_checked`` with the worlds spread over Numba's threads, each world with its
+    scratch memory in ``works`` (``parallel.make_world_works``; CALL_NEW_WORK when they
+    do not fit)."""
+    if not world_works_fit(works, m, s, c, con, o):
+        return CALL_NEW_WORK, 0, -1, -1, -1, np.int64(0)
     saved = _save(s, c, con)
     stage, code, w, i = _prepare(m, s, c, ball)
     if stage != CALL_STEPPED:
         return stage, code, w, i, -1, np.int64(0)
-    status, fw, fk, fb, needed = step_worlds_parallel(m, s, c, con, pairs, n, o)
+    status, fw, fk, fb, needed = step_worlds_parallel(m, s, c, con, pairs, n, o, works)
     _finish(s, c, con, saved, status)
     return CALL_STEPPED, status, fw, fb, fk, needed
 

@@ -8,8 +8,9 @@ common case (a character on exact contacts) without allocating.
 
 Back-off: a world whose Lemke solve failed skips Lemke (PGS at once) for the next 1, 2, 4,
 ... up to ``LEMKE_BACKOFF_MAX`` steps while it keeps failing, and tries it every step
-again after an exact solve (Lemke's, or ``solve_fast``'s, which resets the back-off). A pile of redundant contacts (a character lying on the ground:
-64 contacts, every face's corners) makes Lemke fail step after step, each failure costing
+again after an exact solve (Lemke's, or ``solve_fast``'s, which resets the back-off). A
+pile of redundant contacts (a character lying on the ground: 64 contacts, every face's
+corners) makes Lemke fail step after step, each failure costing
 several times a PGS solve (measured: 8-9 ms for Lemke against 1.6 ms for PGS on the fallen
 course ragdoll); the back-off keeps that cost to one attempt in ``LEMKE_BACKOFF_MAX + 1``
 steps. ``solve_fast`` (the exact common case, no pivoting) is tried on every step: a
@@ -21,7 +22,7 @@ from numba import njit
 from .._jit import noalloc
 from .arrays import CONTACT_LCP, CONTACT_PENALTY, CONTACT_PGS, SOLVER_PGS
 from .solvers.direct import solve_direct
-from .solvers.mlcp import FAST_SOLVED, guess_on_tree_fast, solve_mlcp
+from .solvers.mlcp import FAST_GUESS_FAILED, FAST_NOT_HANDLED, guess_on_tree_fast, solve_mlcp
 from .solvers.pgs import solve_pgs
 from .solvers.tree import make_plan_cache, plan_capacity
 
@@ -31,13 +32,16 @@ LEMKE_BACKOFF_MAX = 128
 
 
 @njit(cache=True)
-def solve_rows(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o, caches, backoff):
+def solve_rows(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o, caches, backoff,
+               fast_status=FAST_NOT_HANDLED):
     """Solve rows ``[0, nrow)`` (``ncon`` contacts among them) with the method the options
     ``o`` pick, updating ``vel``, ``angvel`` (nbody, 3) and ``imp`` (nrow,) in place.
 
     caches : (direct, mlcp) tree-plan caches (``make_solver_caches``).
     backoff : (2,) int64 of the world's state (``lcp_backoff``): steps left that skip
         Lemke, and the current window (module docstring); updated.
+    fast_status : what ``solve_fast`` returned for these rows: after FAST_GUESS_FAILED the
+        mixed LCP does not try last step's contact state again.
     Returns 1 when PGS stood in for the exact (Lemke) solve, else 0."""
     if o.contact == CONTACT_PGS or (o.solver == SOLVER_PGS and ncon == 0):
         solve_pgs(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp, o.iterations,
@@ -51,13 +55,11 @@ def solve_rows(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o, caches, ba
     # from the warm start
     if backoff[0] > 0:
         backoff[0] -= 1
-        status = np.int64(-1)
+    elif solve_mlcp(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp, np.int64(0),
+                    caches[1], fast_status != FAST_GUESS_FAILED) == 0:
+        backoff[1] = 0
+        return 0
     else:
-        status = solve_mlcp(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp,
-                            np.int64(0), caches[1])
-        if status == 0:
-            backoff[1] = 0
-            return 0
         backoff[1] = min(max(2 * backoff[1], np.int64(1)), np.int64(LEMKE_BACKOFF_MAX))
         backoff[0] = backoff[1]
     solve_pgs(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp, o.iterations,
@@ -69,11 +71,12 @@ def solve_rows(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o, caches, ba
 def solve_fast(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o, caches, fast):
     """``solve_rows``'s most common case, a character standing or walking on an exact (LCP)
     contact model, without allocating or reference counting (``mlcp.guess_on_tree_fast``).
-    True when it solved the rows; False leaves everything to ``solve_rows``."""
+    Returns its status: FAST_SOLVED when it solved the rows; otherwise everything is left
+    to ``solve_rows`` (given the status)."""
     if o.contact != CONTACT_LCP or ncon == 0:
-        return False
+        return FAST_NOT_HANDLED
     return guess_on_tree_fast(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp,
-                              caches[1], fast) == FAST_SOLVED
+                              caches[1], fast)
 
 
 @njit(cache=True)

@@ -45,6 +45,7 @@ from .joints.rows import build_joint_rows, joint_coordinates, joint_reactions
 from .joints.servo import JointDrive
 from .solve import solve_fast, solve_rows
 from .solvers.common import world_inverse_inertia
+from .solvers.mlcp import FAST_SOLVED
 from .stabilize import project_joints
 
 STEP_OK, STEP_DIVERGED, STEP_MORE_PAIRS, STEP_MORE_CONTACTS = 0, 1, 2, 3
@@ -216,14 +217,15 @@ def step_worlds(m, s, c, con, pairs, n, o, work):
                 build_rows(m, sw, cw, conw, ncon, nrow, drive, o, work)
                 t = _lap(o, sw.stage_ticks, STAGE_ROWS, t)
                 # solve
-                if solve_fast(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o, caches,
-                              work.fast):
+                fast = solve_fast(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o,
+                                  caches, work.fast)
+                if fast == FAST_SOLVED:
                     sw.lcp_backoff[0] = 0           # solved exactly: no back-off from Lemke
                     sw.lcp_backoff[1] = 0
                 else:
                     sw.lcp_fallbacks[0] += solve_rows(m, rows, nrow, ncon, inv_inertia, vel,
                                                       angvel, imp, o, caches,
-                                                      sw.lcp_backoff)
+                                                      sw.lcp_backoff, fast)
                 keep_impulses(m, sw, conw, ncon, nrow, o, work, k == n - 1)
                 t = _lap(o, sw.stage_ticks, STAGE_SOLVE, t)
             integrate_positions(m, pos, quat, vel, angvel, o.dt, o.quat_integration)

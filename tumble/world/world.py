@@ -23,6 +23,7 @@ from ..pipeline.checks import (DRIVE_BAD_MAX, DRIVE_FIELDS, DRIVE_ZERO_BODY_QUAT
                                STATE_NONFINITE_VEL, STATE_ZERO_QUAT)
 from ..pipeline.contacts.arrays import make_contacts
 from ..pipeline.joints.rows import joint_coordinates
+from ..pipeline.parallel import make_world_works
 from ..pipeline.step_free import box_free_args, is_free, step_free_boxed
 from ..pipeline.step import STEP_DIVERGED, STEP_MORE_CONTACTS, STEP_MORE_PAIRS
 from ..pipeline.work import make_step_work
@@ -136,6 +137,7 @@ class World(StateMixin, ControlMixin, QueryMixin):
         self._pairs = np.zeros((_capacity(pair_capacity, default, "pair_capacity"), 2),
                                np.int32)
         self._work = None          # scratch of the serial step, kept between calls
+        self._works = None         # the parallel step's, one per world
         self._entry = None         # step_boxed's compiled entry point, once called
         self._free_entry = None    # step_free_boxed's, once called (a free model)
         self._free_box = None      # step_free.box_free_args of the arrays, once made
@@ -351,9 +353,12 @@ class World(StateMixin, ControlMixin, QueryMixin):
             if is_free(self.model, self._control.body_servo):
                 stage, code, w, i, k, needed = self._call_free(n, o)
             elif self.parallel:
+                if self._works is None:
+                    self._works = make_world_works(self.model.arrays, self._state,
+                                                   self._control, self._contacts, o)
                 stage, code, w, i, k, needed = call.step_checked_parallel(
                     self.model.arrays, self._state, self._control, self._contacts,
-                    self._pairs, n, o, self._ball_joints)
+                    self._pairs, n, o, self._ball_joints, self._works)
             else:
                 stage, code, w, i, k, needed = self._call_serial(n, o)
             if stage == call.CALL_BAD_STATE:
@@ -361,7 +366,7 @@ class World(StateMixin, ControlMixin, QueryMixin):
             if stage == call.CALL_BAD_DRIVE:
                 raise self._drive_error(code, w, i)
             if stage == call.CALL_NEW_WORK:
-                self._work = None
+                self._work = self._works = None
             elif not self._grew_buffers(code, needed):
                 break
         if code == STEP_DIVERGED:

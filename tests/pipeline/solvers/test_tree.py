@@ -21,7 +21,8 @@ from tumble.pipeline.joints.rows import build_joint_rows
 from tumble.pipeline.joints.servo import JointDrive
 from tumble.pipeline.solvers.common import make_rows_nb, world_inverse_inertia
 from tumble.pipeline.solvers.direct import solve_active_set
-from tumble.pipeline.solvers.guess import guess_states, guessed_active_set, make_held_scratch
+from tumble.pipeline.solvers.guess import (SLIDE_NEG, SLIDE_POS, guess_states,
+                                           guessed_active_set, make_held_scratch, solve_held)
 from tumble.pipeline.solvers.mlcp import (FAST_NOT_HANDLED, FAST_SOLVED, guess_on_tree_fast,
                                          make_fast_scratch, mixed_lcp, solve_mlcp)
 from tumble.pipeline.solvers.partition import partition_rows
@@ -330,6 +331,23 @@ def test_tree_on_a_free_box_matches_dense():
     assert seen > 0
 
 
+def test_the_tree_path_without_the_guess_matches_dense():
+    """``solve_mlcp(guess=False)`` (what a step runs after its fast path's guess failed)
+    skips only the guess: the complement and Lemke on the tree give the dense path's
+    answer on the jointed boxes riding a free box."""
+    world = boxes_on_a_free_box()
+    for cache, _ in steps_with_contacts(world, 60, 12):
+        rows, nrow, im, ii, vel, angvel, imp0 = rows_with_gravity(world)
+        out = []
+        for guess in (False, None):
+            v, w, imp = vel.copy(), angvel.copy(), imp0.copy()
+            status = (solve_mlcp(rows, nrow, im, ii, v, w, imp, 0, cache, False) if guess is False
+                      else mixed_lcp(rows, nrow, im, ii, v, w, imp, 0, False))
+            out.append((imp, v, w, status))
+        assert out[0][3] == out[1][3] == 0
+        assert_same(*out)
+
+
 def fast_and_full(world, cache, fast):
     """The mixed LCP of the world's current rows and contacts by the allocation-free fast
     path (``guess_on_tree_fast``) and by ``solve_mlcp``, both on the plan kept in
@@ -342,23 +360,37 @@ def fast_and_full(world, cache, fast):
     out.append((imp, v, w))
     v, w, imp = vel.copy(), angvel.copy(), imp0.copy()
     full = solve_mlcp(rows, nrow, im, ii, v, w, imp, 0, cache)
-    assert full == 0 or status == FAST_NOT_HANDLED
+    assert full == 0 or status != FAST_SOLVED
     out.append((imp, v, w))
     return status, out, (imp0, vel, angvel)
+
+
+def steps_with_contacts(world, steps, every):
+    """Step ``world`` ``every`` steps at a time, ``steps`` in all; yield the mixed LCP's
+    plan cache and fast-path scratch (made once) after each call that left contacts."""
+    m = world.model
+    cache = make_solver_caches(m.arrays, np.zeros(0, np.int64), m.nbody)[1]
+    fast = make_fast_scratch(m.nrow + 3 * world.contact_capacity, m.nbody, cache)
+    for _ in range(steps // every):
+        world.step(every)
+        if world.state_arrays.contact_count[0] > 0:
+            yield cache, fast
+
+
+def rows_with_gravity(world):
+    """``scene_rows`` with contacts and with this step's gravity in the velocities, as a
+    step solves them (without it, resting contacts see no approach and carry nothing)."""
+    rows, nrow, im, ii, vel, angvel, imp0 = scene_rows(world, contacts=True)
+    vel = vel + world.dt * np.asarray(world.model.gravity) * (im > 0)[:, None]
+    return rows, nrow, im, ii, vel, angvel, imp0
 
 
 def check_fast_path(world, steps, every):
     """Step ``world``; every ``every`` steps the fast path either solves exactly as
     ``solve_mlcp`` does (bit for bit: the same kernels in the same order) or declines and
     leaves its inputs untouched. Returns how many times it solved and was tried."""
-    m = world.model
-    cache = make_solver_caches(m.arrays, np.zeros(0, np.int64), m.nbody)[1]
-    fast = make_fast_scratch(m.nrow + 3 * world.contact_capacity, m.nbody, cache)
     solved = tried = 0
-    for _ in range(steps // every):
-        world.step(every)
-        if world.state_arrays.contact_count[0] == 0:
-            continue
+    for cache, fast in steps_with_contacts(world, steps, every):
         status, (got, want), inputs = fast_and_full(world, cache, fast)
         tried += 1
         if status == FAST_SOLVED:
@@ -384,13 +416,44 @@ def test_fast_path_solves_the_standing_pd_ragdoll_as_solve_mlcp_does():
 
 
 def test_fast_path_declines_what_it_cannot_guess():
-    """Jointed boxes on a free box that starts sliding: a sliding contact, then four
+    """Jointed boxes on a free box that starts sliding: sliding contacts, then four
     coplanar contacts per box whose held rows are dependent (Lemke picks the basis). The
-    fast path declines those steps and leaves its inputs as they were; whatever it does
-    solve it solves as ``solve_mlcp`` does."""
+    fast path declines some of those steps and leaves its inputs as they were; whatever it
+    does solve it solves as ``solve_mlcp`` does."""
     world = boxes_on_a_free_box(slide=0.5)
     solved, tried = check_fast_path(world, 60, 2)
     assert tried == 30 and solved < tried
+
+
+def fast_against_lemke(world, steps, every):
+    """Step ``world``; every ``every`` steps solve its rows (velocities with this step's
+    gravity, as the step solves them) by the fast path and by Lemke on the dense complement
+    (``mixed_lcp`` without the tree, which never guesses a sliding contact). Where the fast
+    path solves, its impulses and velocities must be Lemke's. Returns (solved, tried)."""
+    solved = tried = 0
+    for cache, fast in steps_with_contacts(world, steps, every):
+        rows, nrow, im, ii, vel, angvel, imp0 = rows_with_gravity(world)
+        solve_mlcp(rows, nrow, im, ii, vel.copy(), angvel.copy(), imp0.copy(), 0, cache)
+        got = [imp0.copy(), vel.copy(), angvel.copy()]
+        status = guess_on_tree_fast(rows, nrow, im, ii, got[1], got[2], got[0], cache, fast)
+        want = [imp0.copy(), vel.copy(), angvel.copy()]
+        assert mixed_lcp(rows, nrow, im, ii, want[1], want[2], want[0], 0, False) == 0
+        tried += 1
+        if status == FAST_SOLVED:
+            solved += 1
+            # (the tree's complement and the dense one differ in round-off)
+            assert_same((*got, 0), (*want, 0), tol=1e-7)
+    return solved, tried
+
+
+def test_fast_path_solves_sliding_contacts_as_lemke_does():
+    """Balls sliding on the ground (friction at its pyramid's bound, slipping at rate
+    lambda), and jointed boxes riding a sliding box: last step's sliding state, kept at
+    the bound, solves most steps on the fast path, with Lemke's impulses and velocities."""
+    solved, tried = fast_against_lemke(sliding_chain(2.0, mu=0.1), 20, 2)
+    assert tried == 10 and solved >= 8                # the first call only plans
+    solved, tried = fast_against_lemke(boxes_on_a_free_box(slide=0.5), 60, 2)
+    assert tried == 30 and solved >= 20
 
 
 def test_fast_path_declines_without_a_kept_plan():
@@ -596,6 +659,40 @@ def test_guessed_active_set_solves_the_lcp(seed, ncontact, nbox, nbody, guess):
             if took:
                 np.testing.assert_allclose(p2, p_ref, rtol=0,
                                            atol=1e-8 * max(1.0, np.abs(p_ref).max()))
+
+
+@FAST
+@given(seed=st.integers(0, 2**32 - 1), ncontact=st.integers(1, 5), nbody=st.integers(1, 3))
+def test_a_sliding_guess_solves_as_lemke(seed, ncontact, nbody):
+    """From Lemke's own solution, the guess with its sliding groups kept at their bound
+    (``allow_bound``) solves to Lemke's impulses, with each group's slip rate ``lambda``
+    >= 0 equal to ``-s w`` of its sliding rows; the guess without ``allow_bound`` declines
+    any sliding group."""
+    rng = np.random.default_rng(seed)
+    rows, n, S, c = contact_problem(rng, ncontact, 0, nbody)
+    part = partitioned(rows, n)
+    p_ref = np.zeros(n)
+    if pyramid_lcp(rows, part, S, c, np.zeros(n), 0, False, p_ref) != 0:
+        return
+    state = np.zeros(n, np.int64)
+    assert guess_states(rows, part, p_ref, state, np.zeros(2 * n), True)
+    sliding = (state == SLIDE_POS) | (state == SLIDE_NEG)
+    if sliding.any():
+        assert not guess_states(rows, part, p_ref, np.zeros(n, np.int64), np.zeros(2 * n))
+    sub = np.flatnonzero(state != 0)
+    hs = make_held_scratch(n)
+    p = np.zeros(n)
+    ok, _ = solve_held(rows, part, sub, len(sub), state, S[np.ix_(sub, sub)], c[sub], p, hs)
+    if not ok:
+        return                                       # dependent held rows: Lemke decides
+    scale = max(1.0, np.abs(p_ref).max())
+    np.testing.assert_allclose(p, p_ref, rtol=0, atol=1e-7 * scale)
+    w = S @ p - c
+    for t, a in enumerate(sub):
+        if sliding[a]:
+            sign = 1.0 if state[a] == SLIDE_POS else -1.0
+            assert hs.lam[t] >= -1e-7 * (np.abs(c).max() + 1.0)
+            assert -sign * w[a] == pytest.approx(hs.lam[t], abs=1e-7 * (np.abs(c).max() + 1.0))
 
 
 def test_right_guess_skips_lemke():

@@ -13,8 +13,13 @@ Two forms:
 * ``guessed_active_set``: on a complement ``S`` of every row, with a few primal-dual
   corrections for contacts that come or go.
 
-A sliding contact, or redundant held rows (four coplanar contacts of a box), are left to
-Lemke (``pyramid.py``).
+A contact whose friction was at its pyramid's bound last step (sliding, or Lemke's basis
+putting a redundant corner's friction at the bound) is guessed at the bound again by
+``guess_on_tree`` (``allow_bound``): its friction rows that carried impulse keep their signs,
+their impulses sum to ``mu p_n``, and they slip at the group's common rate ``lambda >= 0``
+(the pyramid's slack, ``pyramid.py``), which makes the held system unsymmetric (solved by
+Gaussian elimination). Redundant held rows (four coplanar contacts of a box) are left to
+Lemke.
 """
 from collections import namedtuple
 
@@ -34,14 +39,18 @@ from .tree import (RowColumns, tree_add_columns, tree_backward, tree_column_dot,
 # Feasibility slack of a guessed active set, relative to the problem's scale: a guess is
 # the LCP's solution when every inequality holds to this (then p is exact to round-off).
 GUESS_TOL = 1e-10
+# Unknowns (held rows and sliding groups' slip rates) a guess with sliding contacts may
+# have; more go to Lemke (two feet of four sliding corners each: 32).
+SLIDE_UNKNOWNS = 64
 # Primal-dual corrections of the guess before Lemke takes over.
 _GUESS_ROUNDS = 4
 # A pivot of the guess's Cholesky factor below this times its diagonal entry marks
 # redundant rows (four coplanar contacts of a box): Lemke picks a basis instead.
 _REDUNDANT = 1e-10
 
-# states of a row in a guessed active set
-ZERO, EQUAL, AT_LO, AT_HI = 0, 1, 2, 3
+# states of a row in a guessed active set; SLIDE_*: a friction row at its group's bound,
+# carrying impulse of that sign
+ZERO, EQUAL, AT_LO, AT_HI, SLIDE_POS, SLIDE_NEG = 0, 1, 2, 3, 4, 5
 
 # Scratch of ``solve_held`` for up to k rows (``make_held_scratch``).
 HeldScratch = namedtuple("HeldScratch", [
@@ -50,14 +59,21 @@ HeldScratch = namedtuple("HeldScratch", [
     "fac",      # (k, k) its Cholesky factor
     "rhs",      # (k,)
     "x",        # (k,)
+    "aug",      # (K, K + 1) the unsymmetric system with sliding groups, rhs last; K =
+                # min(2k, SLIDE_UNKNOWNS)
+    "gkey",     # (k,) int64 each sliding group's first held row (position in sub)
+    "gnorm",    # (k,) int64 its normal's position in sub
+    "lam",      # (k,) each held row's group's slip rate lambda (0 when not sliding)
 ])
 
 
 @njit(cache=True)
 def make_held_scratch(k):
     """``HeldScratch`` for up to ``k`` rows (no need to zero)."""
+    K = min(2 * k, SLIDE_UNKNOWNS)
     return HeldScratch(np.empty(k, np.int64), np.empty((k, k)), np.empty((k, k)), np.empty(k),
-                       np.empty(k))
+                       np.empty(k), np.empty((K, K + 1)), np.empty(k, np.int64),
+                       np.empty(k, np.int64), np.empty(k))
 
 
 # The vectors of the tree path for one solve (``tree_work``).
@@ -114,14 +130,16 @@ def make_guess_scratch(nheld, nbody, plan):
 
 
 @noalloc
-def guess_states(rows, part, impulse, state, load):
+def guess_states(rows, part, impulse, state, load, allow_bound=False):
     """Each row's state (nn,) from last step's impulses: a pushing normal or limit holds
     (``EQUAL``), others are zero; a friction row of a pushing contact holds if it
     carried impulse, else stays zero (sticking contacts of one body are redundant in
     their tangents, and Lemke's basis keeps only some of them); a box row inside its
-    bounds holds, at a bound it is fixed there. False if some friction group was at its
-    bound (a sliding contact): the guess cannot express it. ``load`` (2 nrow,) zero on
-    entry (in the slots of the friction rows): scratch for the groups' loads."""
+    bounds holds, at a bound it is fixed there. A friction group at its bound (sliding,
+    or a redundant contact's friction put there by Lemke's basis): with ``allow_bound``
+    its rows that carried impulse slide (``SLIDE_POS``/``SLIDE_NEG`` by their sign),
+    else the function returns False (the guess cannot express it). ``load`` (2 nrow,)
+    zero on entry (in the slots of the friction rows): scratch for the groups' loads."""
     idx, where, kind, oth, nn = part.idx, part.where, part.kind, part.oth, part.nn
     for a in range(nn):
         i = oth[a]
@@ -149,25 +167,50 @@ def guess_states(rows, part, impulse, state, load):
             state[a] = ZERO
             continue
         if load[load_slot(rows, r, impulse.shape[0])] >= rows.mu[r] * pn * (1.0 - 1e-9):
-            return False
+            if not allow_bound:
+                return False
+            if impulse[r] > 0.0:
+                state[a] = SLIDE_POS
+            elif impulse[r] < 0.0:
+                state[a] = SLIDE_NEG
+            else:
+                state[a] = ZERO
+            continue
         state[a] = EQUAL if impulse[r] != 0.0 else ZERO
     return True
+
+
+@njit(cache=True, inline="always")
+def _sliding(st):
+    return st == SLIDE_POS or st == SLIDE_NEG
+
+
+@njit(cache=True, inline="always")
+def _same_group(rows, r, q):
+    """Whether friction rows ``r`` and ``q`` share a pyramid."""
+    return r == q or (rows.group[r] >= 0 and rows.group[q] == rows.group[r])
 
 
 @noalloc
 def solve_held(rows, part, sub, ns, state, S, cvec, p, hs):
     """The impulses of the rows ``oth[sub[:ns]]`` in their ``state`` (indexed like
     ``oth``), ``S`` and ``c`` indexed by position in ``sub``: rows at a bound keep it,
-    zero rows nothing, and the held rows solve ``S_HH p_H = c_H - S_HB p_B`` (Cholesky).
-    Returns (ok, largest held impulse); ok is False for dependent held rows.
-    ``hs``: ``make_held_scratch`` for at least ``ns`` rows."""
+    zero rows nothing, and the held rows solve ``S_HH p_H = c_H - S_HB p_B`` (Cholesky);
+    with sliding rows (``SLIDE_*``) the system gains each sliding group's slip rate
+    ``lambda`` (``hs.lam``, by position in ``sub``) and the group's bound, and is solved
+    by Gaussian elimination (``_solve_sliding``). Returns (ok, largest held impulse); ok
+    is False for dependent held rows. ``hs``: ``make_held_scratch`` for at least ``ns``
+    rows."""
     idx, oth = part.idx, part.oth
     free, mat, fac, rhs, x = hs.free, hs.mat, hs.fac, hs.rhs, hs.x
     nf = np.int64(0)
+    slides = False
     for t in range(ns):
         a = sub[t]
         r = idx[oth[a]]
-        if state[a] == EQUAL:
+        hs.lam[t] = 0.0
+        if state[a] == EQUAL or _sliding(state[a]):
+            slides = slides or _sliding(state[a])
             free[nf] = t
             nf += 1
             p[a] = 0.0
@@ -186,6 +229,8 @@ def solve_held(rows, part, sub, ns, state, S, cvec, p, hs):
         rhs[u] = acc
         for v in range(nf):
             mat[u, v] = S[t, free[v]]
+    if slides:
+        return _solve_sliding(rows, part, sub, ns, state, nf, hs, p)
     if not cholesky_factor(mat, nf, fac, _REDUNDANT):
         return False, 0.0
     cholesky_apply(fac, rhs, nf, x)
@@ -194,6 +239,111 @@ def solve_held(rows, part, sub, ns, state, S, cvec, p, hs):
         p[sub[free[u]]] = x[u]
         pmax = max(pmax, abs(x[u]))
     return True, pmax
+
+
+@noalloc
+def _solve_sliding(rows, part, sub, ns, state, nf, hs, p):
+    """``solve_held``'s system with sliding groups: unknowns the held impulses (``hs.mat``,
+    ``hs.rhs`` set for the ``nf`` rows ``hs.free``) and one ``lambda`` per sliding group;
+    a sliding row's equation gains ``+ s lambda`` (its velocity is ``-s lambda``: it slips
+    against its impulse), and each group adds ``sum s p - mu p_n = 0``. Gaussian
+    elimination with partial pivoting; (False, 0) when a pivot is below ``_REDUNDANT``
+    of its column's scale (dependent rows) or a group's normal is not held."""
+    idx, oth = part.idx, part.oth
+    free, aug, gkey, gnorm, lam = hs.free, hs.aug, hs.gkey, hs.gnorm, hs.lam
+    ng = np.int64(0)
+    # the sliding groups: each one's first held row and its normal's position in free
+    for u in range(nf):
+        a = sub[free[u]]
+        if not _sliding(state[a]):
+            continue
+        r = idx[oth[a]]
+        g = np.int64(-1)
+        for h in range(ng):
+            if _same_group(rows, r, idx[oth[sub[free[gkey[h]]]]]):
+                g = h
+        if g >= 0:
+            continue
+        normal = normal_of(rows, part, r)
+        gn = np.int64(-1)
+        for v in range(nf):
+            if sub[free[v]] == normal and state[normal] == EQUAL:
+                gn = v
+        if gn < 0:
+            return False, 0.0
+        gkey[ng] = u
+        gnorm[ng] = gn
+        ng += 1
+    dim = nf + ng
+    if dim > aug.shape[0]:
+        return False, 0.0
+    for e in range(dim):
+        for c in range(dim + 1):
+            aug[e, c] = 0.0
+    for u in range(nf):
+        for v in range(nf):
+            aug[u, v] = hs.mat[u, v]
+        aug[u, dim] = hs.rhs[u]
+    for h in range(ng):
+        rk = idx[oth[sub[free[gkey[h]]]]]
+        for u in range(nf):
+            a = sub[free[u]]
+            if not _sliding(state[a]) or not _same_group(rows, idx[oth[a]], rk):
+                continue
+            sgn = 1.0 if state[a] == SLIDE_POS else -1.0
+            aug[u, nf + h] = sgn
+            aug[nf + h, u] = sgn
+        aug[nf + h, gnorm[h]] = -rows.mu[rk]
+    scale = 1e-300
+    for u in range(nf):
+        scale = max(scale, abs(aug[u, u]))
+    for col in range(dim):
+        best = col
+        for e in range(col + 1, dim):
+            if abs(aug[e, col]) > abs(aug[best, col]):
+                best = e
+        if abs(aug[best, col]) <= _REDUNDANT * scale:
+            return False, 0.0
+        if best != col:
+            for c in range(dim + 1):
+                tmp = aug[col, c]
+                aug[col, c] = aug[best, c]
+                aug[best, c] = tmp
+        inv = 1.0 / aug[col, col]
+        for e in range(col + 1, dim):
+            f = aug[e, col] * inv
+            if f != 0.0:
+                for c in range(col, dim + 1):
+                    aug[e, c] -= f * aug[col, c]
+    for e in range(dim - 1, -1, -1):
+        acc = aug[e, dim]
+        for c in range(e + 1, dim):
+            acc -= aug[e, c] * aug[c, dim]
+        aug[e, dim] = acc / aug[e, e]
+    pmax = 0.0
+    for u in range(nf):
+        x = aug[u, dim]
+        p[sub[free[u]]] = x
+        pmax = max(pmax, abs(x))
+    for h in range(ng):
+        rk = idx[oth[sub[free[gkey[h]]]]]
+        for u in range(nf):
+            a = sub[free[u]]
+            if _sliding(state[a]) and _same_group(rows, idx[oth[a]], rk):
+                lam[free[u]] = aug[nf + h, dim]
+    return True, pmax
+
+
+@noalloc
+def _group_slip(rows, part, sub, ns, state, lam, r):
+    """The slip rate ``lambda`` of friction row ``r``'s group if the group slides among the
+    held rows ``oth[sub[:ns]]`` (``lam`` by position in ``sub``), else -1."""
+    idx, oth = part.idx, part.oth
+    for t in range(ns):
+        a = sub[t]
+        if _sliding(state[a]) and _same_group(rows, idx[oth[a]], r):
+            return lam[t]
+    return -1.0
 
 
 @noalloc
@@ -345,6 +495,10 @@ def guess_on_tree(rows, part, plan, bodies, tw, ns, gs):
     tol_w, tol_p = slack(GUESS_TOL, cmax, smax, pmax)
     if not _holding_ok(rows, part, state, p, tol_p):
         return False
+    lam = gs.held.lam
+    for t in range(ns):
+        if _sliding(state[sub[t]]) and lam[t] < -tol_w:
+            return False                        # it would slip along its impulse
     pt = gs.pt
     for t in range(ns):
         pt[t] = p[sub[t]]
@@ -358,7 +512,7 @@ def guess_on_tree(rows, part, plan, bodies, tw, ns, gs):
     push(rows, part, sub, ns, p, alone, np.bool_(True), dva, vn)   # the others
     for a in range(nn):
         st = state[a]
-        if st == EQUAL:
+        if st == EQUAL or _sliding(st):         # (held: their velocities as solved)
             continue
         i = oth[a]
         r = idx[i]
@@ -371,7 +525,10 @@ def guess_on_tree(rows, part, plan, bodies, tw, ns, gs):
         if k == KIND_FRICTION and abs(w) > tol_w:
             normal = normal_of(rows, part, r)
             if normal >= 0 and state[normal] == EQUAL:
-                return False
+                # a zero row of a holding contact may slip only within its group's rate
+                slip = _group_slip(rows, part, sub, ns, state, lam, r)
+                if slip < 0.0 or abs(w) > slip + tol_w:
+                    return False
     _clamp_round_off(part, p)
     return True
 
@@ -379,9 +536,15 @@ def guess_on_tree(rows, part, plan, bodies, tw, ns, gs):
 @noalloc
 def _holding_ok(rows, part, state, p, tol_p):
     """Whether the held rows' impulses keep their bounds: normals and limits push, box
-    rows stay inside, every friction group stays inside ``mu p_n``."""
+    rows stay inside, every friction group stays inside ``mu p_n``, sliding rows keep
+    their signs."""
     idx, kind, oth = part.idx, part.kind, part.oth
     for a in range(part.nn):
+        if _sliding(state[a]):
+            # a sliding row keeps its impulse's sign (the group's bound holds as solved)
+            if (p[a] if state[a] == SLIDE_POS else -p[a]) < -tol_p:
+                return False
+            continue
         if state[a] != EQUAL:
             continue
         i = oth[a]

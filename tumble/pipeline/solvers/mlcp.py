@@ -37,17 +37,20 @@ from .tree import cached_tree_plan, make_plan_cache, plan_kept, tree_factor, tre
 
 
 @njit(cache=True)
-def solve_mlcp(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, max_pivots, cache):
+def solve_mlcp(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, max_pivots, cache,
+               guess=True):
     """Solve the rows exactly; apply the impulses. Returns Lemke's status (0: solved).
 
     ``max_pivots`` caps Lemke's pivots (<= 0: ten times the LCP size). ``cache``
     (``tree.make_plan_cache``) keeps the bilateral rows' tree plan from step to step.
+    ``guess`` False skips the first try on the tree (last step's contact state), for a
+    caller whose ``guess_on_tree_fast`` already tried it (FAST_GUESS_FAILED).
 
     On failure nothing is applied and ``impulse`` is left as it came (warm start for
     the caller's fallback).
     """
     return mixed_lcp_cached(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse,
-                            max_pivots, np.bool_(True), cache)
+                            max_pivots, np.bool_(True), cache, guess)
 
 
 @njit(cache=True)
@@ -56,13 +59,13 @@ def mixed_lcp(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, max_pivot
     complement is always formed densely (the reference the tree path is tested against)."""
     cache = make_plan_cache(np.int64(0), np.int64(vel.shape[0]), np.int64(0))
     return mixed_lcp_cached(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse,
-                            max_pivots, allow_tree, cache)
+                            max_pivots, allow_tree, cache, np.bool_(True))
 
 
 @njit(cache=True)
 def mixed_lcp_cached(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, max_pivots,
-                     allow_tree, cache):
-    """``mixed_lcp`` with the tree plan kept in ``cache``."""
+                     allow_tree, cache, guess):
+    """``mixed_lcp`` with the tree plan kept in ``cache`` (``guess``: see solve_mlcp)."""
     # (the impulses stay as they came until Lemke has solved: none is zeroed here)
     part = partition_rows(rows, nrow, np.empty(6 * nrow, np.int64))
     if part.n == 0:
@@ -71,7 +74,7 @@ def mixed_lcp_cached(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, ma
     if allow_tree and part.nb > 0:
         ok, plan = cached_tree_plan(cache, rows, part.bsel, part.nb, inv_mass, vel.shape[0])
         if ok and _factor_tree(rows, part, plan, bodies, np.empty(part.nb)):
-            return _mlcp_tree(rows, part, plan, bodies, impulse, max_pivots)
+            return _mlcp_tree(rows, part, plan, bodies, impulse, max_pivots, guess)
     return _mlcp_dense(rows, part, bodies, impulse, max_pivots)
 
 
@@ -102,8 +105,9 @@ def make_fast_scratch(nrow, nbody, cache):
                        make_guess_scratch(np.int64(FAST_HELD), nbody, cache.plan))
 
 
-# What guess_on_tree_fast reports.
-FAST_SOLVED, FAST_NOT_HANDLED = 0, 1
+# What guess_on_tree_fast reports: solved; declined before trying the guess (no kept plan,
+# no room); tried the guess, which does not solve the LCP.
+FAST_SOLVED, FAST_NOT_HANDLED, FAST_GUESS_FAILED = 0, 1, 2
 
 
 @noalloc
@@ -111,9 +115,11 @@ def guess_on_tree_fast(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, 
     """``solve_mlcp``'s common case without allocating (so without reference counting):
     the bilateral rows have a tree plan in ``cache`` already, it factorises, and last
     step's contact state solves the LCP (``guess.guess_on_tree``). Returns FAST_SOLVED
-    with the impulses and velocities applied as ``solve_mlcp`` would, or FAST_NOT_HANDLED
-    with ``vel``, ``angvel`` and ``impulse`` untouched (then call ``solve_mlcp``, which
-    redoes the factorisation). ``fs``: ``make_fast_scratch`` for rows of capacity >= nrow."""
+    with the impulses and velocities applied as ``solve_mlcp`` would, or else
+    FAST_NOT_HANDLED or FAST_GUESS_FAILED (the guess was tried) with ``vel``, ``angvel``
+    and ``impulse`` untouched (then call ``solve_mlcp``, which redoes the factorisation;
+    with ``guess=False`` after FAST_GUESS_FAILED). ``fs``: ``make_fast_scratch`` for rows
+    of capacity >= nrow."""
     nload = 2 * impulse.shape[0]            # guess_states' slots: two per row of capacity
     nbody = vel.shape[0]
     if nrow == 0 or fs.ints.shape[0] < 8 * nrow or \
@@ -127,58 +133,71 @@ def guess_on_tree_fast(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, 
     if not _factor_tree(rows, part, plan, bodies, fs.floats[:part.nb]):
         return FAST_NOT_HANDLED
     tw = tree_work(fs.floats[part.nb:], fs.ints[6 * nrow:], part, nload, nbody)
-    if _guess_and_finish(rows, part, plan, bodies, impulse, tw, fs.guess):
+    _right_hand_side(rows, part, bodies, tw)
+    tried = _guess_and_finish(rows, part, plan, bodies, impulse, tw, fs.guess)
+    if tried == _GUESS_SOLVED:
         return FAST_SOLVED
-    return FAST_NOT_HANDLED
+    # (more held rows than the scratch has room for: solve_mlcp's guess has room)
+    return FAST_GUESS_FAILED if tried == _GUESS_FAILED else FAST_NOT_HANDLED
+
+
+# What _guess_and_finish reports.
+_GUESS_SOLVED, _GUESS_FAILED, _GUESS_NO_ROOM = 0, 1, 2
 
 
 @noalloc
-def _guess_and_finish(rows, part, plan, bodies, impulse, tw, gs):
-    """The tree path's first try, shared by ``_mlcp_tree`` and ``guess_on_tree_fast``:
-    ``tw.b`` the active rows' right-hand side less their velocity and ``tw.g`` its
-    bilateral part (both kept for the caller), then last step's contact state
-    (``guess_states``) solved and checked (``guess_on_tree``, scratch ``gs``) and, when
-    it solves the LCP, applied (``_finish``). False leaves the bodies' velocities and
-    ``impulse`` as they came (also when ``gs`` has no room for the held rows). ``tw``
-    (``guess.tree_work``) may hold anything on entry."""
-    idx, kind, oth, nn = part.idx, part.kind, part.oth, part.nn
-    load, b, g, state, sub = tw.load, tw.b, tw.g, tw.state, tw.sub
-    for a in range(nn):                     # only the slots guess_states will sum into
-        if kind[oth[a]] == KIND_FRICTION:
-            load[load_slot(rows, idx[oth[a]], impulse.shape[0])] = 0.0
+def _right_hand_side(rows, part, bodies, tw):
+    """``tw.b``, the active rows' right-hand side less their velocity, and ``tw.g``, its
+    bilateral part: what the guess and the complement both start from."""
+    idx, b, g = part.idx, tw.b, tw.g
     for i in range(part.n):
         b[i] = rows.rhs[idx[i]] - row_velocity(rows, idx[i], bodies.vel, bodies.angvel)
     for u in range(part.nb):
         g[u] = b[part.bil[u]]
+
+
+@noalloc
+def _guess_and_finish(rows, part, plan, bodies, impulse, tw, gs):
+    """The tree path's first try, shared by ``_mlcp_tree`` and ``guess_on_tree_fast``
+    (after ``_right_hand_side``): last step's contact state (``guess_states``) solved and
+    checked (``guess_on_tree``, scratch ``gs``) and, when it solves the LCP, applied
+    (``_finish``): _GUESS_SOLVED. Otherwise (_GUESS_FAILED, or _GUESS_NO_ROOM when ``gs``
+    has no room for the held rows) the bodies' velocities and ``impulse`` are left as
+    they came. ``tw`` (``guess.tree_work``) may hold anything on entry but ``b``, ``g``."""
+    idx, kind, oth, nn = part.idx, part.kind, part.oth, part.nn
+    load, state, sub = tw.load, tw.state, tw.sub
+    for a in range(nn):                     # only the slots guess_states will sum into
+        if kind[oth[a]] == KIND_FRICTION:
+            load[load_slot(rows, idx[oth[a]], impulse.shape[0])] = 0.0
     for a in range(nn):
         state[a] = 0
         tw.p[a] = 0.0
-    if not guess_states(rows, part, impulse, state, load):
-        return False
+    if not guess_states(rows, part, impulse, state, load, np.bool_(True)):
+        return _GUESS_FAILED
     ns = np.int64(0)
     for a in range(nn):
         if state[a] != ZERO:
             sub[ns] = a
             ns += 1
     if ns > gs.rsel.shape[0]:
-        return False
+        return _GUESS_NO_ROOM
     if not guess_on_tree(rows, part, plan, bodies, tw, ns, gs):
-        return False
+        return _GUESS_FAILED
     _finish(rows, part, tw.y, tw.p, tw.vn, bodies, impulse)
-    return True
+    return _GUESS_SOLVED
 
 
 @njit(cache=True)
-def _mlcp_tree(rows, part, plan, bodies, impulse, max_pivots):
+def _mlcp_tree(rows, part, plan, bodies, impulse, max_pivots, guess):
     """The mixed LCP with the bilateral rows factorised over their tree (``plan``).
 
     Last step's contact state is tried first on the rows it holds alone
-    (``guess_on_tree``). Only if that fails: one tree solve gives the bilateral rows'
-    response to the current velocities (``u0``, and ``c = b_N - J_N u0``), ``S`` is
-    assembled from the 6x6 blocks of the constrained inverse mass of the bodies the
-    other rows touch, and after the LCP a second tree solve adds the response to its
-    impulses ``p_N`` (``u1``), so the bodies' velocities change by ``u0 + u1`` and no
-    row's response needs applying one by one."""
+    (``guess_on_tree``; unless ``guess`` is False). Only if that fails: one tree solve
+    gives the bilateral rows' response to the current velocities (``u0``, and
+    ``c = b_N - J_N u0``), ``S`` is assembled from the 6x6 blocks of the constrained
+    inverse mass of the bodies the other rows touch, and after the LCP a second tree
+    solve adds the response to its impulses ``p_N`` (``u1``), so the bodies' velocities
+    change by ``u0 + u1`` and no row's response needs applying one by one."""
     nbody = bodies.vel.shape[0]
     nload = 2 * impulse.shape[0]
     nn, nb = part.nn, part.nb
@@ -186,8 +205,9 @@ def _mlcp_tree(rows, part, plan, bodies, impulse, max_pivots):
     # arithmetic of a small one)
     tw = tree_work(np.zeros(nload + nn + part.n + 2 * nb + 6 * nbody),
                    np.zeros(2 * nn, np.int64), part, nload, nbody)
-    if _guess_and_finish(rows, part, plan, bodies, impulse, tw,
-                         make_guess_scratch(nn, nbody, plan)):
+    _right_hand_side(rows, part, bodies, tw)
+    if guess and _guess_and_finish(rows, part, plan, bodies, impulse, tw,
+                                   make_guess_scratch(nn, nbody, plan)) == _GUESS_SOLVED:
         return LEMKE_SOLVED
     u0 = np.zeros((nbody, 6))
     y0 = np.empty(nb)
