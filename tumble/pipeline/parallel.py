@@ -64,8 +64,9 @@ def step_worlds_parallel(m, s, c, con, pairs, n, o, works):
     for w in prange(nw):
         sw, cw, conw = worlds_view(s, w, w + 1), worlds_view(c, w, w + 1), \
             worlds_view(con, w, w + 1)
+        # (prange's index is unsigned; the typed list takes a signed one)
         status, _, k, b, needed = step_worlds(m, sw, cw, conw, np.empty_like(pairs), n, o,
-                                              works[w])
+                                              works[np.int64(w)])
         out[w, 0] = status
         out[w, 1] = k
         out[w, 2] = b
