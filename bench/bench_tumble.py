@@ -1,9 +1,11 @@
 """tumble's benchmark runner: the scenes of bench/tumble_scenes.py, timed like the peers.
 
-    python bench/bench_tumble.py SCENE [--variant default|pgs|penalty] [--budget S]
+    python bench/bench_tumble.py SCENE [--variant default|pgs|penalty|sleep|...] [--budget S]
 
 Variants pick World options: 'default' (direct joint solver, exact 'lcp' contacts), 'pgs'
-(projected Gauss-Seidel for joints and contacts), 'penalty' (spring-damper contacts).
+(projected Gauss-Seidel for joints and contacts), 'penalty' (spring-damper contacts);
+'sleep' and 'pgs-sleep' are 'default' and 'pgs' with islands at rest put to sleep after
+0.5 s (``World(sleep_time=0.5)``; the peers' runs do not sleep).
 On the ragdoll PD scenes, 'implicit-pd', 'stable-pd' and 'explicit-pd' hold the pose with
 tumble's in-step joint servos (same gains, ``World(pd=...)``) instead of the Python-side
 :class:`ExplicitPD` of the other variants; ``ragdoll60pd`` and ``ragdoll120pd`` run the
@@ -31,7 +33,10 @@ from bench import tumble_scenes as T  # noqa: E402
 
 VARIANTS = {"default": {}, "pgs": dict(solver="pgs", contact="pgs"),
             "penalty": dict(contact="penalty"), "implicit-pd": dict(pd="implicit"),
-            "stable-pd": dict(pd="stable"), "explicit-pd": dict(pd="explicit")}
+            "stable-pd": dict(pd="stable"), "explicit-pd": dict(pd="explicit"),
+            # islands at rest for 0.5 s sleep (Box2D's default time; off by default)
+            "sleep": dict(sleep_time=0.5),
+            "pgs-sleep": dict(solver="pgs", contact="pgs", sleep_time=0.5)}
 EXTRA_SCENES = ["ragdoll60pd", "ragdoll120pd"]
 
 

@@ -30,7 +30,7 @@ StepOptions = namedtuple("StepOptions", [
     "erp", "cfm", "solver", "iterations", "tolerance", "warm_start", "projection",
     "projection_tolerance", "contact", "contact_erp", "contact_cfm", "slop",
     "bounce_threshold", "penalty_k", "penalty_c", "v_slip", "contact_margin", "pd_mode",
-    "broadphase", "profile"])
+    "broadphase", "profile", "sleep_time", "sleep_speed", "sleep_spin"])
 
 StateArrays = namedtuple("StateArrays", [
     "body_pos",        # (nworld, nbody, 3) COM position, m, world frame
@@ -47,6 +47,7 @@ StateArrays = namedtuple("StateArrays", [
     "lcp_fallbacks",   # (nworld,) int64 steps where PGS stood in for Lemke
     "lcp_backoff",     # (nworld, 2) int64 steps left that skip Lemke, and the skip window
     "stage_ticks",     # (nworld, len(STAGES)) int64 time in each stage (_jit.ticks units)
+    "body_rest",       # (nworld, nbody) s each body has been at rest (sleep.py)
 ])
 
 ControlArrays = namedtuple("ControlArrays", [
@@ -81,7 +82,7 @@ def make_state_arrays(nworld, nbody, njoint, nrow):
         joint_force=np.zeros((nw, nj, 3)), joint_torque=np.zeros((nw, nj, 3)),
         contact_count=np.zeros(nw, np.int64), lcp_fallbacks=np.zeros(nw, np.int64),
         lcp_backoff=np.zeros((nw, 2), np.int64),
-        stage_ticks=np.zeros((nw, len(STAGES)), np.int64))
+        stage_ticks=np.zeros((nw, len(STAGES)), np.int64), body_rest=np.zeros((nw, nb)))
 
 
 def make_control_arrays(nworld, nbody, njoint, nactuator):

@@ -3,6 +3,7 @@
 Each step of a world runs these stages, in this order (``step_worlds``):
 
     collide.py            contacts: broad phase, filtering, narrow phase
+    sleep.py              islands at rest put to sleep (when sleep_time is set)
     forces.py             gravity + applied forces and torques
     actuators.py          explicit (or stable) PD servos, joint torques, MJCF actuators
     contacts/penalty.py   spring-damper contact forces (contact="penalty")
@@ -45,6 +46,7 @@ from .joints.rows import build_joint_rows, joint_coordinates, joint_reactions
 from .joints.servo import JointDrive
 from .solve import solve_fast, solve_rows
 from .solvers.common import world_inverse_inertia
+from .sleep import freeze, sleep_islands
 from .solvers.mlcp import FAST_SOLVED
 from .stabilize import project_joints
 
@@ -163,7 +165,7 @@ def step_worlds(m, s, c, con, pairs, n, o, work):
     with the buffer size needed. On a failure it returns at once, the failing world
     mid-step: the caller restores what it saved (``call.py``).
 
-    Each step of a world (a substep) runs the stages in order: collide, forces,
+    Each step of a world (a substep) runs the stages in order: collide, sleep, forces,
     integrate velocities, rows, solve, integrate positions, project joints, divergence
     check; after the last, the joint coordinates.
     """
@@ -198,6 +200,11 @@ def step_worlds(m, s, c, con, pairs, n, o, work):
                     return (STEP_MORE_PAIRS if code == COLLIDE_PAIRS_FULL
                             else STEP_MORE_CONTACTS), w, k, -1, ncon
                 sw.contact_count[0] = ncon
+            # sleep: contacts with an awake body first, the ncon of them the step treats
+            asleep = 0
+            if o.sleep_time > 0.0:
+                ncon, asleep = sleep_islands(m, vel, angvel, sw.body_rest, cw, conw, ncon, o,
+                                             work.island, work.island_rest, work.awake)
             t = _lap(o, sw.stage_ticks, STAGE_COLLIDE, t)
             # forces
             add_forces(m, sw, cw, conw, ncon, drive, o, work, explicit_drives)
@@ -210,6 +217,8 @@ def step_worlds(m, s, c, con, pairs, n, o, work):
             t = _lap(o, sw.stage_ticks, STAGE_FORCES, t)
             integrate_velocities(m, quat, vel, angvel, work.force, work.torque, o.dt,
                                  o.gyroscopic)
+            if asleep > 0:
+                freeze(vel, angvel, work.awake, m)
             t = _lap(o, sw.stage_ticks, STAGE_INTEGRATE_VELOCITIES, t)
             nrow = njrow + 6 * work.servoed.shape[0] + (
                 work.rows_per_contact * ncon if o.contact != CONTACT_PENALTY else 0)
@@ -227,6 +236,8 @@ def step_worlds(m, s, c, con, pairs, n, o, work):
                                                       angvel, imp, o, caches,
                                                       sw.lcp_backoff, fast)
                 keep_impulses(m, sw, conw, ncon, nrow, o, work, k == n - 1)
+                if asleep > 0:
+                    freeze(vel, angvel, work.awake, m)
                 t = _lap(o, sw.stage_ticks, STAGE_SOLVE, t)
             integrate_positions(m, pos, quat, vel, angvel, o.dt, o.quat_integration)
             t = _lap(o, sw.stage_ticks, STAGE_INTEGRATE_POSITIONS, t)

@@ -35,6 +35,9 @@ StepWork = namedtuple("StepWork", [
     "caches",       # (direct, mlcp) tree-plan caches (solve.make_solver_caches)
     "fast",         # mlcp.FastScratch: the mixed LCP's common case without allocating
     "listed",       # (K, 2) int32 the geom pairs that may touch (collide.listed_pairs)
+    "island",       # (nbody,) int64 each body's island (sleep.py)
+    "island_rest",  # (nbody,) s the least time at rest in each island
+    "awake",        # (nbody,) bool the dynamic bodies of awake islands
 ])
 
 
@@ -59,7 +62,8 @@ def make_step_work(m, s, c, con, o):
                     np.zeros((ng, 4)), np.zeros((ng, 3)), np.zeros((ng, 3)),
                     make_contacts_nb(cap), np.empty((nb, 3)), np.empty((nb, 3)), servoed,
                     projection_setup(m, rows, nb, project), caches,
-                    make_fast_scratch(ncap, nb, caches[1]), listed)
+                    make_fast_scratch(ncap, nb, caches[1]), listed, np.zeros(nb, np.int64),
+                    np.zeros(nb), np.ones(nb, np.bool_))
 
 
 @njit(cache=True, inline="always")

@@ -80,7 +80,8 @@ _CHECKS = {
     "slop": _nonneg, "bounce_threshold": _nonneg, "penalty_stiffness": _optional(_pos),
     "penalty_damping": _optional(_nonneg), "slip_velocity": _optional(_pos),
     "contact_margin": _nonneg, "pd": _choice(PD_MODES), "broadphase": _choice(BROADPHASES),
-    "profile": _flag,
+    "profile": _flag, "sleep_time": _optional(_pos), "sleep_speed": _nonneg,
+    "sleep_spin": _nonneg,
 }
 
 
@@ -135,6 +136,13 @@ class Options:
         listed once and their boxes tested every step, which is faster than sorting so few.
     profile : time every stage of the step (``World.stage_times``); off by default, when
         the step reads no clock.
+    sleep_time : None (default): every body steps always. A time (s): an island of bodies
+        (linked by joints or contacts) whose every body has moved at most ``sleep_speed``
+        (m/s) and turned at most ``sleep_spin`` (rad/s) for that long, undriven, sleeps:
+        it holds still at no cost in the solver until something touches, pushes or drives
+        it (``World.sleeping``, ``World.wake``; see ``tumble.pipeline.sleep``). Box2D
+        and Bullet sleep after 0.5 s and 2 s.
+    sleep_speed, sleep_spin : the thresholds of rest (default 0.05 m/s, 0.1 rad/s).
     """
     dt: float
     contact: str = "lcp"
@@ -160,6 +168,9 @@ class Options:
     pd: str = "implicit"
     broadphase: str = "sap"
     profile: bool = False
+    sleep_time: float = None
+    sleep_speed: float = 0.05
+    sleep_spin: float = 0.1
 
     def __setattr__(self, name, value):
         if name not in _CHECKS:
@@ -194,4 +205,5 @@ def step_options(options, lightest_mass):
         float(o.projection_tolerance), CONTACT_MODELS[o.contact], float(o.contact_erp),
         float(o.contact_cfm), float(o.slop), float(o.bounce_threshold), float(k), float(c),
         float(v_slip), float(o.contact_margin), PD_MODES[o.pd], BROADPHASES[o.broadphase],
-        bool(o.profile))
+        bool(o.profile), float(o.sleep_time or 0.0), float(o.sleep_speed),
+        float(o.sleep_spin))

@@ -50,6 +50,8 @@ class State:
     body_names, joint_names: the names of the model's bodies and joints (tuples), which
     ``get_state`` records so that ``set_state`` refuses the state of another model even
     when its arrays have the same shapes (None: not checked, e.g. a State written by hand).
+    body_rest (nworld, nbody): s each body has been at rest, which decides sleeping (with
+    the ``sleep_time`` option; None: all awake).
     """
     time: float
     body_pos: np.ndarray
@@ -79,13 +81,17 @@ class State:
     contacts: ContactArrays = None
     body_names: tuple = None
     joint_names: tuple = None
+    body_rest: np.ndarray = None
 
 
 # Fields of State past the body state, each a copy of the StateArrays field of that name.
 _EXTRA_STATE = ("row_impulse", "motor_target", "applied_force", "applied_torque",
                 "joint_force", "joint_torque", "pd_kp", "pd_kd", "pd_max", "pd_target_quat",
                 "pd_target_q", "pd_target_qd", "joint_applied", "ctrl", "body_servo",
-                "body_target_pos", "body_target_quat", "body_target_vel", "body_target_angvel")
+                "body_target_pos", "body_target_quat", "body_target_vel", "body_target_angvel",
+                "body_rest")
+# Fields a state file may lack (written before they existed): None when missing.
+_OPTIONAL_IN_FILE = ("body_rest",)
 # Actuator fields: left as they are when a State does not carry them.
 _DRIVE_STATE = ("pd_kp", "pd_kd", "pd_max", "pd_target_quat", "pd_target_q", "pd_target_qd",
                 "joint_applied", "ctrl", "body_servo", "body_target_pos", "body_target_quat",
@@ -187,8 +193,8 @@ class StateMixin:
         and body_angvel (k, nbody, 3) m/s and rad/s, world frame, for the k worlds selected by
         ``worlds`` (indices, a boolean mask of nworld, or None for all; a single world may
         drop the leading axis). Their solver memory (warm-start impulses, last contacts),
-        pending forces and joint reactions are cleared and their joint coordinates
-        refreshed; servo gains, targets and actuator controls are left as they are, and so
+        pending forces and joint reactions are cleared, their bodies woken (``sleep_time``)
+        and their joint coordinates refreshed; servo gains, targets and actuator controls are left as they are, and so
         are the other worlds and the time. Validated first: nothing changes if refused.
         This is how an environment resets the worlds whose episodes ended.
         """
@@ -235,7 +241,7 @@ class StateMixin:
         for field, a in arrays.items():
             getattr(s, field)[idx] = a
         for field in ("applied_force", "applied_torque", "row_impulse", "joint_force",
-                      "joint_torque"):
+                      "joint_torque", "body_rest"):
             self._array(field)[idx] = 0.0
         s.contact_count[idx] = 0
         s.lcp_backoff[idx] = 0
@@ -390,8 +396,9 @@ class StateMixin:
         state = State(time, contact_count=field("contact_count"), contacts=contacts,
                       body_names=tuple(self.model.body_names),
                       joint_names=tuple(self.model.joint_names),
-                      **{f: field(f) for f in ("body_pos", "body_quat", "body_vel",
-                                               "body_angvel") + _EXTRA_STATE})
+                      **{f: data.get(f) if f in _OPTIONAL_IN_FILE else field(f)
+                         for f in ("body_pos", "body_quat", "body_vel", "body_angvel")
+                         + _EXTRA_STATE})
         try:
             self.set_state(state)
         except StateError as exc:

@@ -279,6 +279,7 @@ class World(StateMixin, ControlMixin, QueryMixin):
     @body_pos.setter
     def body_pos(self, value):
         self._assign("body_pos", value)
+        self.wake()
 
     @property
     def body_quat(self):
@@ -288,6 +289,7 @@ class World(StateMixin, ControlMixin, QueryMixin):
     @body_quat.setter
     def body_quat(self, value):
         self._assign("body_quat", value)
+        self.wake()
 
     @property
     def body_vel(self):
@@ -297,6 +299,7 @@ class World(StateMixin, ControlMixin, QueryMixin):
     @body_vel.setter
     def body_vel(self, value):
         self._assign("body_vel", value)
+        self.wake()
 
     @property
     def body_angvel(self):
@@ -306,6 +309,7 @@ class World(StateMixin, ControlMixin, QueryMixin):
     @body_angvel.setter
     def body_angvel(self, value):
         self._assign("body_angvel", value)
+        self.wake()
 
     @property
     def joint_q(self):
@@ -503,6 +507,24 @@ class World(StateMixin, ControlMixin, QueryMixin):
                     f"sqrt(k/m) dt = {wh:.3g} at dt = {self.dt:g} s; penalty contacts are "
                     f"stable below 1 (four contacts) to 2 (one): lower the stiffness or dt",
                     TumbleWarning, stacklevel=3)
+
+    # ------------------------------------------------------------ sleeping
+    @property
+    def sleeping(self):
+        """Which bodies slept in the last step (``sleep_time`` option): bool (nbody,) or
+        (nworld, nbody); all False while sleeping is off. Read-only (a copy)."""
+        t = self.options.sleep_time
+        if t is None:
+            return self._view(np.zeros(self._state.body_rest.shape, np.bool_))
+        return self._view(self._state.body_rest >= t)
+
+    def wake(self, world=None):
+        """Wake every body of one world (index) or of all (None): their times at rest
+        restart, so none sleeps before ``sleep_time`` of rest again. Writing the state
+        through ``body_pos = ...`` (and the other setters) wakes all; write into the arrays
+        in place (``world.body_pos[...] = ...``) and a sleeping body moved there stays
+        asleep where it was put until ``wake``."""
+        self._state.body_rest[self._world_slice(world)] = 0.0
 
     # ------------------------------------------------------------ profile
     def stage_times(self, reset=False):
