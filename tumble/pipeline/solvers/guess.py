@@ -30,7 +30,7 @@ from ..._jit import noalloc
 from .common import minv_jt
 from .direct import cholesky_apply, cholesky_factor, row_dot
 from .partition import (KIND_BOX, KIND_FRICTION, KIND_UNILATERAL, group_load, load_slot,
-                        normal_of)
+                        normal_of, same_group)
 from .pyramid import slack
 from .schur import push
 from .tree import (RowColumns, tree_add_columns, tree_backward, tree_column_dot, tree_forward,
@@ -185,12 +185,6 @@ def _sliding(st):
     return st == SLIDE_POS or st == SLIDE_NEG
 
 
-@njit(cache=True, inline="always")
-def _same_group(rows, r, q):
-    """Whether friction rows ``r`` and ``q`` share a pyramid."""
-    return r == q or (rows.group[r] >= 0 and rows.group[q] == rows.group[r])
-
-
 @noalloc
 def solve_held(rows, part, sub, ns, state, S, cvec, p, hs):
     """The impulses of the rows ``oth[sub[:ns]]`` in their ``state`` (indexed like
@@ -260,7 +254,7 @@ def _solve_sliding(rows, part, sub, ns, state, nf, hs, p):
         r = idx[oth[a]]
         g = np.int64(-1)
         for h in range(ng):
-            if _same_group(rows, r, idx[oth[sub[free[gkey[h]]]]]):
+            if same_group(rows, r, idx[oth[sub[free[gkey[h]]]]]):
                 g = h
         if g >= 0:
             continue
@@ -288,7 +282,7 @@ def _solve_sliding(rows, part, sub, ns, state, nf, hs, p):
         rk = idx[oth[sub[free[gkey[h]]]]]
         for u in range(nf):
             a = sub[free[u]]
-            if not _sliding(state[a]) or not _same_group(rows, idx[oth[a]], rk):
+            if not _sliding(state[a]) or not same_group(rows, idx[oth[a]], rk):
                 continue
             sgn = 1.0 if state[a] == SLIDE_POS else -1.0
             aug[u, nf + h] = sgn
@@ -329,7 +323,7 @@ def _solve_sliding(rows, part, sub, ns, state, nf, hs, p):
         rk = idx[oth[sub[free[gkey[h]]]]]
         for u in range(nf):
             a = sub[free[u]]
-            if _sliding(state[a]) and _same_group(rows, idx[oth[a]], rk):
+            if _sliding(state[a]) and same_group(rows, idx[oth[a]], rk):
                 lam[free[u]] = aug[nf + h, dim]
     return True, pmax
 
@@ -341,7 +335,7 @@ def _group_slip(rows, part, sub, ns, state, lam, r):
     idx, oth = part.idx, part.oth
     for t in range(ns):
         a = sub[t]
-        if _sliding(state[a]) and _same_group(rows, idx[oth[a]], r):
+        if _sliding(state[a]) and same_group(rows, idx[oth[a]], r):
             return lam[t]
     return -1.0
 

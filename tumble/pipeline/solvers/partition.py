@@ -99,11 +99,15 @@ def group_load(rows, part, r, p):
     idx, oth, kind = part.idx, part.oth, part.kind
     load = 0.0
     for c in range(part.nn):
-        rc = idx[oth[c]]
-        if kind[oth[c]] == KIND_FRICTION and (
-                rc == r or (rows.group[r] >= 0 and rows.group[rc] == rows.group[r])):
+        if kind[oth[c]] == KIND_FRICTION and same_group(rows, r, idx[oth[c]]):
             load += abs(p[c])
     return load
+
+
+@njit(cache=True, inline="always")
+def same_group(rows, r, q):
+    """Whether friction rows ``r`` and ``q`` share a pyramid (a row shares its own)."""
+    return r == q or (rows.group[r] >= 0 and rows.group[q] == rows.group[r])
 
 
 @njit(cache=True, inline="always")
