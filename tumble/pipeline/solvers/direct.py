@@ -44,8 +44,38 @@ def cholesky_factor(a, n, work, redundant=0.0):
 
 
 @noalloc
+def cholesky_factor_dropping(a, n, work, redundant):
+    """``cholesky_factor`` of a positive semi-definite ``a[:n, :n]`` whose dependent rows
+    are dropped: a row whose pivot falls to ``redundant`` times its diagonal entry (it
+    depends on the rows before it, as the fourth contact of a box face does on the other
+    three) gets a zero row and column and an infinite pivot, so ``cholesky_apply`` gives
+    it 0 and solves the others. Returns the number of rows dropped, or -1 when ``a`` is
+    not positive semi-definite. Whether the dropped rows' equations hold is the caller's
+    to check (they do when ``b`` is consistent)."""
+    dropped = 0
+    for i in range(n):
+        for k in range(i + 1):
+            s = a[i, k]
+            for t in range(k):
+                s -= work[i, t] * work[k, t]
+            if i != k:
+                work[i, k] = s / work[k, k]
+            elif abs(s) <= redundant * a[i, i]:
+                for t in range(i):
+                    work[i, t] = 0.0
+                work[i, i] = np.inf
+                dropped += 1
+            elif s <= 1e-300:
+                return -1
+            else:
+                work[i, i] = np.sqrt(s)
+    return dropped
+
+
+@noalloc
 def cholesky_apply(work, b, n, x):
-    """``x[:n] = (L L^T)^-1 b[:n]`` with the factor ``L`` of ``cholesky_factor``."""
+    """``x[:n] = (L L^T)^-1 b[:n]`` with the factor ``L`` of ``cholesky_factor`` (or of
+    ``cholesky_factor_dropping``: a dropped row's infinite pivot makes its ``x`` 0)."""
     for i in range(n):
         s = b[i]
         for t in range(i):

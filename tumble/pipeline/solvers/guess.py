@@ -28,7 +28,7 @@ from numba import njit
 
 from ..._jit import noalloc
 from .common import minv_jt
-from .direct import cholesky_apply, cholesky_factor, row_dot
+from .direct import cholesky_apply, cholesky_factor_dropping, row_dot
 from .partition import (KIND_BOX, KIND_FRICTION, KIND_UNILATERAL, group_load, load_slot,
                         normal_of, same_group)
 from .pyramid import slack
@@ -225,14 +225,43 @@ def solve_held(rows, part, sub, ns, state, S, cvec, p, hs):
             mat[u, v] = S[t, free[v]]
     if slides:
         return _solve_sliding(rows, part, sub, ns, state, nf, hs, p)
-    if not cholesky_factor(mat, nf, fac, _REDUNDANT):
+    # a face's fourth contact depends on the other three: its row is dropped (impulse 0,
+    # as in a basic solution of Lemke's) if the equations stay consistent without it
+    dropped = cholesky_factor_dropping(mat, nf, fac, _REDUNDANT)
+    if dropped < 0:
         return False, 0.0
     cholesky_apply(fac, rhs, nf, x)
+    if dropped > 0 and not _dropped_rows_hold(mat, rhs, fac, x, nf):
+        return False, 0.0
     pmax = 0.0
     for u in range(nf):
         p[sub[free[u]]] = x[u]
         pmax = max(pmax, abs(x[u]))
     return True, pmax
+
+
+@noalloc
+def _dropped_rows_hold(mat, rhs, fac, x, n):
+    """Whether the rows ``cholesky_factor_dropping`` dropped (infinite pivot in ``fac``)
+    still hold in ``mat[:n, :n] x = rhs`` to 1e-9 of the system's scale."""
+    scale = 1e-300
+    xmax = 0.0
+    for u in range(n):
+        scale = max(scale, abs(rhs[u]))
+        xmax = max(xmax, abs(x[u]))
+    dmax = 0.0
+    for u in range(n):
+        dmax = max(dmax, abs(mat[u, u]))
+    tol = 1e-9 * (scale + dmax * xmax)
+    for u in range(n):
+        if fac[u, u] != np.inf:
+            continue
+        s = -rhs[u]
+        for v in range(n):
+            s += mat[u, v] * x[v]
+        if abs(s) > tol:
+            return False
+    return True
 
 
 @noalloc

@@ -16,8 +16,10 @@ passes the complementarity checks -- what a resting or walking character mostly 
 ``guess_on_tree_fast`` does that without allocating. Otherwise ``S`` for every row comes
 from the constrained inverse mass of the few bodies they touch (``schur.complement``), a
 few primal-dual corrections handle contacts that come or go
-(``guess.guessed_active_set``), and anything else (a sliding contact, redundant contacts)
-goes to Lemke.
+(``guess.guessed_active_set``). Sliding contacts are held at their pyramid's bound, and a
+dependent row of redundant contacts (a box face's fourth) is dropped from the held system
+(``direct.cholesky_factor_dropping``) when the others satisfy it; anything else goes to
+Lemke.
 """
 from collections import namedtuple
 

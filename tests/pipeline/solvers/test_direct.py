@@ -1,0 +1,79 @@
+"""The dense Cholesky kernels of ``solvers/direct.py``, dependent rows included."""
+import numpy as np
+from hypothesis import given, settings, strategies as st
+
+import tumble
+from tumble.apps import benchmarks
+from tumble.pipeline.solvers.direct import (cholesky_apply, cholesky_factor,
+                                            cholesky_factor_dropping)
+from tumble.pipeline.solvers.guess import _REDUNDANT, _dropped_rows_hold
+
+FAST = settings(max_examples=60, deadline=None)
+
+
+def semidefinite(seed, n, rank):
+    """A = J J^T (n, n) of the given rank, J with entries of order 1."""
+    rng = np.random.default_rng(seed)
+    J = rng.normal(size=(rank, 6)) if rank else np.zeros((0, 6))
+    mix = rng.normal(size=(n - rank, rank)) if rank else np.zeros((n - rank, 0))
+    rows = np.vstack([J, mix @ J])[rng.permutation(n)]
+    return rows @ rows.T + 0.0, rows
+
+
+@FAST
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 12), rank=st.integers(1, 6))
+def test_dropping_solves_a_consistent_semidefinite_system(seed, n, rank):
+    rank = min(rank, n)
+    A, rows = semidefinite(seed, n, rank)
+    rng = np.random.default_rng(seed + 1)
+    b = A @ rng.normal(size=n)                      # consistent: in A's range
+    fac = np.zeros((n, n))
+    dropped = cholesky_factor_dropping(A, n, fac, _REDUNDANT)
+    assert dropped == n - np.linalg.matrix_rank(rows, tol=1e-9)
+    x = np.zeros(n)
+    cholesky_apply(fac, b, n, x)
+    assert np.all(np.isfinite(x))
+    assert np.abs(A @ x - b).max() <= 1e-8 * (np.abs(b).max() + 1.0)
+    assert np.count_nonzero(x[np.isinf(np.diag(fac))]) == 0      # dropped rows carry 0
+    assert _dropped_rows_hold(A, b, fac, x, n)
+
+
+@FAST
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(2, 12), rank=st.integers(1, 5))
+def test_an_inconsistent_dropped_row_is_caught(seed, n, rank):
+    rank = min(rank, n - 1)
+    A, _ = semidefinite(seed, n, rank)
+    rng = np.random.default_rng(seed + 1)
+    fac = np.zeros((n, n))
+    assert cholesky_factor_dropping(A, n, fac, _REDUNDANT) >= 1
+    b = A @ rng.normal(size=n)
+    b[np.flatnonzero(np.isinf(np.diag(fac)))[0]] += 1.0           # off A's range
+    x = np.zeros(n)
+    cholesky_apply(fac, b, n, x)
+    assert not _dropped_rows_hold(A, b, fac, x, n)
+
+
+@FAST
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 10))
+def test_dropping_equals_cholesky_on_a_definite_matrix(seed, n):
+    rng = np.random.default_rng(seed)
+    M = rng.normal(size=(n, n))
+    A = M @ M.T + n * np.eye(n)
+    fa, fb = np.zeros((n, n)), np.zeros((n, n))
+    assert cholesky_factor(A, n, fa) and cholesky_factor_dropping(A, n, fb, _REDUNDANT) == 0
+    assert np.array_equal(np.tril(fa), np.tril(fb))
+
+
+def test_an_indefinite_matrix_is_refused():
+    A = np.array([[1.0, 2.0], [2.0, 1.0]])
+    assert cholesky_factor_dropping(A, 2, np.zeros((2, 2)), _REDUNDANT) == -1
+
+
+def test_the_ten_box_stack_stays_exact_with_dependent_rows_dropped():
+    """Each box face has four contacts, one of whose rows depends on the others: dropped,
+    the stack's last contact state solves its steps; it stays exact and never falls back."""
+    w = tumble.World(benchmarks.build("stack"), contact="lcp")
+    top0 = w.body_pos[-1].copy()
+    w.step(benchmarks.STACK["steps"])
+    assert w.lcp_fallbacks == 0
+    assert np.linalg.norm(w.body_pos[-1] - top0) < 1e-6
