@@ -23,6 +23,10 @@ Sections:
               speed after 3 s, the largest deviation from the command of the speed over a
               stride (two steps) after 3 s, and from when on every stride stays within 0.1
               m/s; then sideways 0.3 m/s (generalized only) and turning at 0.5 rad/s
+    survival  the same pushes at fixed forces (--survival-forces), every direction and push
+              time: how many of them the walker survives. A smoother figure than the largest
+              force survived at every push time (one fall among the push times decides
+              that one), for comparing controller changes
     slopes    10 degrees up and down for 30 s: distance, height climbed
     terrain   a step up and down of 5 cm on a heightfield, random bumps up to 3 cm on a 0.3
               m grid: time and distance walked (stop after 25 m)
@@ -108,9 +112,9 @@ def _survives(ctrl, snap, force, args):
     return True
 
 
-def push_table(make, args, directions=DIRECTIONS):
-    """{direction: (largest force survived at every push time, survivors at the next force
-    up, that force)} for a walker, or None if it fell before the pushes."""
+def push_snapshots(make, args):
+    """(walker, its snapshots at ``args.phases`` push times spread over a stride after
+    ``args.settle`` s of walking), or None if it fell before."""
     c = make()
     c.place()
     while c.time < args.settle - 1e-9:
@@ -124,6 +128,16 @@ def push_table(make, args, directions=DIRECTIONS):
         while c.time < args.settle + k * stride / args.phases - 1e-9:
             c.step()
         snaps.append(c.snapshot())
+    return c, snaps
+
+
+def push_table(make, args, directions=DIRECTIONS):
+    """{direction: (largest force survived at every push time, survivors at the next force
+    up, that force)} for a walker, or None if it fell before the pushes."""
+    got = push_snapshots(make, args)
+    if got is None:
+        return None
+    c, snaps = got
     out = {}
     for name, d in directions.items():
         best, f, ok = 0.0, args.force_step, args.phases
@@ -153,6 +167,30 @@ def pushes(args):
             tail = f"({ok}/{args.phases})" if f <= args.max_force else "(max)"
             cells.append(f"{best:4.0f} {tail:>7s}")
         print(f"{label:24s} " + " ".join(f"{x:>14s}" for x in cells), flush=True)
+
+
+def survival(args):
+    forces = args.survival_forces
+    print(f"## survival: {args.push_time:g} s pushes at '{PUSH_BODY}' of "
+          f"{', '.join(f'{f:g}' for f in forces)} N, {args.phases} push times over a stride "
+          f"after {args.settle:g} s of walking, {args.watch:g} s watched: pushes survived per "
+          f"direction (one count per force)")
+    print(f"{'walker':24s} {'total':>9s} " + " ".join(f"{d:>10s}" for d in DIRECTIONS))
+    for label, make in walkers(args):
+        got = push_snapshots(make, args)
+        if got is None:
+            print(f"{label:24s} fell before the pushes", flush=True)
+            continue
+        c, snaps = got
+        cells, total = [], 0
+        for d in DIRECTIONS.values():
+            counts = [sum(_survives(c, s, f * np.asarray(d), args) for s in snaps)
+                      for f in forces]
+            total += sum(counts)
+            cells.append("/".join(str(n) for n in counts))
+        n = len(forces) * args.phases * len(DIRECTIONS)
+        print(f"{label:24s} {f'{total}/{n}':>9s} " + " ".join(f"{x:>10s}" for x in cells),
+              flush=True)
 
 
 def stride_speeds(c, r, settle, along=None):
@@ -289,8 +327,9 @@ def simbicon_steps(args):
                   f"{r.summary()}; {r.wall_time / r.time:.3f} s per simulated s", flush=True)
 
 
-SECTIONS = {"distance": distance, "pushes": pushes, "speeds": speeds, "slopes": slopes,
-            "terrain": terrain, "steps": steps, "simbicon-steps": simbicon_steps}
+SECTIONS = {"distance": distance, "pushes": pushes, "survival": survival, "speeds": speeds,
+            "slopes": slopes, "terrain": terrain, "steps": steps,
+            "simbicon-steps": simbicon_steps}
 
 
 def main():
@@ -310,6 +349,8 @@ def main():
     p.add_argument("--watch", type=float, default=5.0)
     p.add_argument("--force-step", type=float, default=50.0)
     p.add_argument("--max-force", type=float, default=800.0)
+    p.add_argument("--survival-forces", default="100,200,300",
+                   help="N, the survival section's forces")
     p.add_argument("--long", type=float, default=60.0, help="s of the speed runs")
     p.add_argument("--speeds", default="-0.5,0,0.5,1.0,1.5")
     p.add_argument("--side-speed", type=float, default=0.3)
@@ -321,12 +362,13 @@ def main():
     args.gaits = args.gaits.split(",")
     args.styles = args.styles.split(",")
     args.speeds = [float(v) for v in args.speeds.split(",")]
+    args.survival_forces = [float(f) for f in args.survival_forces.split(",")]
     unknown = [s for s in args.sections if s not in SECTIONS]
     if unknown:
         p.error(f"unknown sections {unknown}; choose from {list(SECTIONS)}")
     print(f"controllers {args.controllers}, physics step {args.dt:.5f} s, control 1/60 s, "
           f"SIMBICON hip_control '{args.hip_control}'\n")
-    default = [k for k in SECTIONS if k != "simbicon-steps"]
+    default = [k for k in SECTIONS if k not in ("simbicon-steps", "survival")]
     for name in args.sections or default:
         t0 = time.perf_counter()
         SECTIONS[name](args)
