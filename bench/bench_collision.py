@@ -90,7 +90,8 @@ def time_scene(model, world, methods, repeats):
         lo, hi, pairs = np.zeros((ng, 3)), np.zeros((ng, 3)), np.zeros((world._pairs.shape[0], 2),
                                                                         np.int32)
         args = (m, s.body_pos[0], s.body_quat[0], np.zeros((ng, 3)), np.zeros((ng, 4)), lo, hi,
-                pairs, view, 0, prev, world.contact_margin, code, use)
+                pairs, view, 0, prev, world.contact_margin, code, use,
+                np.zeros(world.model.nbody), 0.0)
         status, count = collide_world(*args)
         assert status == 0, "buffers too small"
         bp = np.zeros_like(pairs)

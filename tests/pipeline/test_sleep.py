@@ -14,12 +14,13 @@ DT = 1 / 240
 HALF = 0.5
 
 
-def boxes(stacks=1, height=3, ball_height=None, contact="lcp", **options):
-    """``stacks`` stacks of ``height`` unit boxes 3 m apart on a plane; with
-    ``ball_height``, a 1 kg ball of radius 0.25 m above the first stack."""
+def boxes(stacks=1, height=3, ball_height=None, contact="lcp", first_stack=0, **options):
+    """``stacks`` stacks of ``height`` unit boxes 3 m apart on a plane (those from
+    ``first_stack`` on); with ``ball_height``, a 1 kg ball of radius 0.25 m above the
+    first stack."""
     b = tumble.ModelBuilder()
     b.add_geom(None, "plane", normal=(0, 0, 1), friction=0.9)
-    for s in range(stacks):
+    for s in range(first_stack, stacks):
         for i in range(height):
             name = f"box{s}_{i}"
             b.add_body(name, pos=(3.0 * s, 0.0, HALF + 2 * HALF * i), mass=1.0,
@@ -193,3 +194,136 @@ def test_batched_worlds_sleep_each_on_its_own():
 def test_bad_sleep_options_are_refused_by_name(name, value):
     with pytest.raises(ModelError, match=name):
         boxes(**{name: value})
+
+
+# ------------------------------------------ contacts of sleeping pairs, and their order ---
+
+def _narrow_phase_now(w):
+    """world 0's contacts as the collision stage finds them at its current pose, every
+    pair tested: {(geom a, geom b, feature): (point, normal, depth)}."""
+    from tumble.pipeline.collide import collide_world
+    from tumble.pipeline.contacts.arrays import make_contacts
+    m, s, ng = w.model.arrays, w.state_arrays, w.model.ngeom
+    con = make_contacts(1, 256)
+    view = type(con)(*(a[0] for a in con))
+    prev = type(con)(*(a[0].copy() for a in con))
+    status, n = collide_world(m, s.body_pos[0], s.body_quat[0], np.zeros((ng, 3)),
+                              np.zeros((ng, 4)), np.zeros((ng, 3)), np.zeros((ng, 3)),
+                              np.zeros((ng * ng, 2), np.int32), view, np.int64(0), prev,
+                              w.contact_margin, 0, np.zeros((0, 2), np.int32),
+                              np.zeros(w.model.nbody), 0.0)
+    assert status == 0
+    return {(*view.geom[i], view.feature[i]): (view.point[i], view.normal[i], view.depth[i])
+            for i in range(n)}
+
+
+def test_a_sleeping_pair_keeps_the_contacts_a_test_would_find():
+    # two stacks asleep; one pushed awake: the other's pairs are no longer tested, and their
+    # contacts are still, to the bit, what testing them would give
+    w = boxes(stacks=2, sleep_time=0.5)
+    w.step(300)
+    assert w.sleeping.all()
+    w.apply_force("box1_2", (0.0, 40.0, 0.0))
+    w.step(20)
+    asleep = w.sleeping
+    assert asleep[:3].all() and not asleep[3:].any()
+    found = _narrow_phase_now(w)
+    st = w.get_state()
+    kept = 0
+    for i in range(int(st.contact_count[0])):
+        g0, g1 = st.contacts.geom[0, i]
+        if w.model.geom_body[g1] >= 3:               # the awake stack's: moved since
+            continue
+        point, normal, depth = found[(g0, g1, st.contacts.feature[0, i])]
+        assert np.array_equal(point, st.contacts.point[0, i])
+        assert np.array_equal(normal, st.contacts.normal[0, i])
+        assert depth == st.contacts.depth[0, i]
+        kept += 1
+    assert kept == 12                                # 4 corners under each sleeping box
+
+
+def test_sleeping_pairs_are_not_tested_again():
+    # a sleeping box moved in place (no wake: documented to stay asleep where put) keeps
+    # the contacts found where it was: its pairs are no longer tested
+    w = boxes(sleep_time=0.5)
+    w.step(300)
+    before = w.get_state().contacts
+    w.state_arrays.body_pos[0, 2, 2] += 0.005       # its boxes still overlap
+    w.step(5)
+    assert w.sleeping.all()
+    after = w.get_state().contacts
+    for a, b in zip(before, after):
+        assert np.array_equal(a, b)
+    w.wake()                                          # woken, it is tested: and falls
+    w.step(1)
+    assert not np.array_equal(w.get_state().contacts.depth, after.depth)
+
+
+def test_an_awake_island_behind_a_sleeping_one_steps_as_if_alone():
+    # in pair order the pushed stack's contacts come after the sleeping stack's: moved
+    # first, they keep their order and find last step's impulses (PGS's warm start), so
+    # the stack steps to the bit as it does alone
+    w = boxes(stacks=2, sleep_time=0.5, contact="pgs")
+    alone = boxes(stacks=2, first_stack=1, sleep_time=0.5, contact="pgs")
+    for world in (w, alone):
+        world.step(300)
+        assert world.sleeping.all()
+        world.apply_force("box1_2", (0.0, 40.0, 0.0))
+        world.step(30)
+    assert w.sleeping[:3].all() and not w.sleeping[3:].any()
+    assert np.array_equal(w.body_pos[3:], alone.body_pos)
+    assert np.array_equal(w.body_vel[3:], alone.body_vel)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 7), st.integers(0, 7)), min_size=1, max_size=12,
+                unique=True),
+       st.lists(st.booleans(), min_size=8, max_size=8), st.integers(1, 3))
+def test_awake_contacts_go_first_and_merge_back_into_pair_order(pairs, awake, per_pair):
+    from collections import namedtuple
+    from tumble.pipeline.contacts.arrays import make_contacts
+    from tumble.pipeline.sleep import awake_contacts_first
+    from tumble.pipeline.step import keep_previous_contacts
+    pairs = sorted({(min(a, b), max(a, b)) for a, b in pairs if a != b})
+    if not pairs:
+        return
+    cap = len(pairs) * per_pair
+    con, spare, prev = (type(c)(*(a[0] for a in c)) for c in
+                        (make_contacts(1, cap), make_contacts(1, cap), make_contacts(1, cap)))
+    k = 0
+    for a, b in pairs:
+        for f in range(per_pair):
+            con.geom[k] = a, b
+            con.body[k] = a - 1, b - 1                   # geom 0 on the world
+            con.feature[k] = f
+            con.depth[k] = 0.01 * k
+            con.impulse[k, 0] = k
+            k += 1
+    original = [a.copy() for a in con]
+    flags = np.array(awake)
+    n_awake = awake_contacts_first(con, cap, flags, spare)
+
+    def touches(i):
+        a, b = con.body[i]
+        return (a >= 0 and flags[a]) or (b >= 0 and flags[b])
+    assert all(touches(i) for i in range(n_awake))
+    assert not any(touches(i) for i in range(n_awake, cap))
+    for part in (range(n_awake), range(n_awake, cap)):      # each part keeps its order
+        depths = con.depth[list(part)]
+        assert np.all(np.diff(depths) > 0)
+    state = namedtuple("S", ["contact_count"])(np.array([cap], np.int64))
+    keep_previous_contacts(state, con, prev)
+    for field, a, b in zip(con._fields, original, prev):
+        assert np.array_equal(a, b), field
+
+
+def test_a_state_without_contacts_starts_every_body_awake():
+    w = boxes(sleep_time=0.5)
+    w.step(300)
+    st = w.get_state()
+    assert w.sleeping.all()
+    st.contacts, st.contact_count = None, None
+    w.set_state(st)                  # asleep with no contacts would keep none of them
+    assert not w.sleeping.any()
+    w.step(240)
+    assert abs(w.body_pos[0, 2] - HALF) < 1e-3      # found its floor again

@@ -22,12 +22,16 @@ a woken island, or a body that parts from a moving one (a box whose support is p
 away), needs ``sleep_time`` of rest again before it sleeps; and ``body_rest >=
 sleep_time`` says exactly which bodies slept in the last step (``World.sleeping``).
 
-Contacts are reordered so the awake ones come first; the step lays out rows for those only.
+Contacts are reordered so the awake ones come first (each part in its pair order); the step
+lays out rows for those only. The narrow phase does not test a pair of sleeping (or static)
+bodies again: they have not moved since it last did, so it takes last step's contacts of
+the pair (``collide.py``).
 """
 from numba import njit
 
 from .._jit import noalloc
 from ..model.types import DYNAMIC
+from .contacts.arrays import copy_contact
 
 
 @njit(cache=True, inline="always")
@@ -120,23 +124,6 @@ def _touch(m, vel, angvel, rest, island, a, b, v2, w2):
         rest[b] = 0.0
 
 
-@noalloc
-def _swap_contacts(con, i, j):
-    """Exchange contacts ``i`` and ``j`` of one world's ``ContactArrays``."""
-    for k in range(2):
-        con.geom[i, k], con.geom[j, k] = con.geom[j, k], con.geom[i, k]
-        con.body[i, k], con.body[j, k] = con.body[j, k], con.body[i, k]
-    for k in range(3):
-        con.point[i, k], con.point[j, k] = con.point[j, k], con.point[i, k]
-        con.normal[i, k], con.normal[j, k] = con.normal[j, k], con.normal[i, k]
-    con.depth[i], con.depth[j] = con.depth[j], con.depth[i]
-    con.feature[i], con.feature[j] = con.feature[j], con.feature[i]
-    con.friction[i], con.friction[j] = con.friction[j], con.friction[i]
-    con.restitution[i], con.restitution[j] = con.restitution[j], con.restitution[i]
-    for k in range(con.impulse.shape[1]):
-        con.impulse[i, k], con.impulse[j, k] = con.impulse[j, k], con.impulse[i, k]
-
-
 @njit(cache=True, inline="always")
 def _contact_awake(con, awake, i):
     a, b = con.body[i, 0], con.body[i, 1]
@@ -144,7 +131,7 @@ def _contact_awake(con, awake, i):
 
 
 @noalloc
-def sleep_islands(m, vel, angvel, rest, c, con, ncon, o, island, island_rest, awake):
+def sleep_islands(m, vel, angvel, rest, c, con, ncon, o, island, island_rest, awake, spare):
     """The sleep stage of one world, after collision: times at rest updated
     (``update_rest``), islands found, sleeping ones frozen (zero velocities) and their
     contacts moved behind the awake ones.
@@ -152,7 +139,8 @@ def sleep_islands(m, vel, angvel, rest, c, con, ncon, o, island, island_rest, aw
     vel, angvel : (nbody, 3) at the start of the step; rest : (nbody,) the world's
     ``body_rest``; c : its controls; con, ncon : this step's contacts; island (nbody,)
     int64, island_rest (nbody,) float and awake (nbody,) bool: scratch, ``awake`` left
-    marking the dynamic bodies of awake islands.
+    marking the dynamic bodies of awake islands; spare: ContactArrays as large as ``con``
+    whose contents may be overwritten (the step's ``prev``, matched by then).
     Returns (contacts with an awake body, now first; bodies asleep).
     """
     nb = rest.shape[0]
@@ -183,17 +171,39 @@ def sleep_islands(m, vel, angvel, rest, c, con, ncon, o, island, island_rest, aw
     if asleep == 0:
         return ncon, asleep
     freeze(vel, angvel, awake, m)
-    # awake contacts first: i scans forward for a sleeping one, j back for an awake one
-    i, j = 0, ncon - 1
-    while True:
-        while i <= j and _contact_awake(con, awake, i):
-            i += 1
-        while j > i and not _contact_awake(con, awake, j):
-            j -= 1
-        if i >= j:
+    return awake_contacts_first(con, ncon, awake, spare), asleep
+
+
+@noalloc
+def awake_contacts_first(con, ncon, awake, spare):
+    """Move the contacts ``con[:ncon]`` that touch an ``awake`` body (nbody,) bool before
+    the others, each part keeping its order (so both stay in the narrow phase's pair order,
+    which the next step's warm start relies on; ``spare`` holds the sleeping ones
+    meanwhile). Returns the number of contacts with an awake body."""
+    first_asleep = ncon
+    for i in range(ncon):
+        if not _contact_awake(con, awake, i):
+            first_asleep = i
             break
-        _swap_contacts(con, i, j)
-    return i, asleep
+    mixed = False
+    for i in range(first_asleep, ncon):
+        if _contact_awake(con, awake, i):
+            mixed = True
+            break
+    if not mixed:
+        return first_asleep                 # already in two parts: nothing moves
+    k = first_asleep
+    nsleep = 0
+    for i in range(first_asleep, ncon):
+        if _contact_awake(con, awake, i):
+            copy_contact(con, i, con, k)
+            k += 1
+        else:
+            copy_contact(con, i, spare, nsleep)
+            nsleep += 1
+    for q in range(nsleep):
+        copy_contact(spare, q, con, k + q)
+    return k
 
 
 @noalloc

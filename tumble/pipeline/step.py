@@ -37,6 +37,7 @@ from .arrays import (CONTACT_PENALTY, STAGE_CHECK, STAGE_COLLIDE, STAGE_COORDINA
                      STAGE_FORCES, STAGE_INTEGRATE_POSITIONS, STAGE_INTEGRATE_VELOCITIES,
                      STAGE_PROJECT, STAGE_ROWS, STAGE_SOLVE)
 from .collide import COLLIDE_OK, COLLIDE_PAIRS_FULL, collide_listed, collide_world
+from .contacts.arrays import copy_contact, pair_before
 from .contacts.pairs import ROWS_SPIN
 from .contacts.penalty import penalty_forces
 from .contacts.rows import build_contact_rows, store_contact_impulses
@@ -77,13 +78,24 @@ def _lap(o, stage_ticks, stage, t0):
 
 @noalloc
 def keep_previous_contacts(s, con, prev):
-    """Collide, first part: last step's contacts of world ``s`` (geoms, feature ids,
-    impulses) copied to ``prev``, which the narrow phase matches for warm starts."""
-    for i in range(s.contact_count[0]):
-        prev.geom[i, 0], prev.geom[i, 1] = con.geom[i, 0], con.geom[i, 1]
-        prev.feature[i] = con.feature[i]
-        for q in range(con.impulse.shape[1]):
-            prev.impulse[i, q] = con.impulse[i, q]
+    """Collide, first part: last step's contacts of world ``s`` copied to ``prev`` in pair
+    order, which the narrow phase matches for warm starts (and takes whole for a pair of
+    sleeping bodies). The sleep stage may have moved the sleeping contacts behind the
+    awake ones: two runs in pair order, merged back into one."""
+    n = s.contact_count[0]
+    split = n
+    for c in range(1, n):
+        if pair_before(con, c, con, c - 1):
+            split = c
+            break
+    i, j = 0, split
+    for q in range(n):
+        if j >= n or (i < split and pair_before(con, i, con, j)):
+            copy_contact(con, i, prev, q)
+            i += 1
+        else:
+            copy_contact(con, j, prev, q)
+            j += 1
 
 
 @noalloc
@@ -92,7 +104,7 @@ def find_listed_contacts(m, s, con, pairs, o, work):
     (``work.listed_primitive``): their boxes tested, then the narrow phase."""
     return collide_listed(m, s.body_pos, s.body_quat, work.gpos, work.gquat, work.aabb_lo,
                           work.aabb_hi, pairs, con, s.contact_count[0], work.prev,
-                          o.contact_margin, work.listed)
+                          o.contact_margin, work.listed, s.body_rest, o.sleep_time)
 
 
 @noalloc
@@ -195,7 +207,8 @@ def step_worlds(m, s, c, con, pairs, n, o, work):
                     code, ncon = collide_world(m, pos, quat, work.gpos, work.gquat,
                                                work.aabb_lo, work.aabb_hi, pairs, conw,
                                                sw.contact_count[0], work.prev,
-                                               o.contact_margin, o.broadphase, work.listed)
+                                               o.contact_margin, o.broadphase, work.listed,
+                                               sw.body_rest, o.sleep_time)
                 if code != COLLIDE_OK:
                     return (STEP_MORE_PAIRS if code == COLLIDE_PAIRS_FULL
                             else STEP_MORE_CONTACTS), w, k, -1, ncon
@@ -204,7 +217,8 @@ def step_worlds(m, s, c, con, pairs, n, o, work):
             asleep = 0
             if o.sleep_time > 0.0:
                 ncon, asleep = sleep_islands(m, vel, angvel, sw.body_rest, cw, conw, ncon, o,
-                                             work.island, work.island_rest, work.awake)
+                                             work.island, work.island_rest, work.awake,
+                                             work.prev)
             t = _lap(o, sw.stage_ticks, STAGE_COLLIDE, t)
             # forces
             add_forces(m, sw, cw, conw, ncon, drive, o, work, explicit_drives)

@@ -118,7 +118,8 @@ class StateMixin:
     def set_state(self, state):
         """Restore a ``State`` from ``get_state`` (validated; nothing changes if refused).
 
-        Fields left None are reset: zero impulses, forces and motor targets, no contacts.
+        Fields left None are reset: zero impulses, forces and motor targets, no contacts
+        (and then every body awake).
         A state that names its model's bodies and joints (``get_state`` records them) must
         name this world's, else StateError names the difference."""
         s = self._state
@@ -184,6 +185,10 @@ class StateMixin:
                 mine[:, :n] = contacts[k][:, :n]
         s.contact_count[:] = count
         s.lcp_backoff[:] = 0        # a restored state tries Lemke at once, as a fresh one
+        if contacts is None:
+            # a pair of sleeping bodies is not tested again but keeps its last contacts
+            # (tumble.pipeline.collide): a state without contacts starts every body awake
+            s.body_rest[...] = 0.0
         self._update_joint_coordinates()
 
     def set_body_state(self, body_pos, body_quat, body_vel, body_angvel, *, worlds=None):

@@ -221,12 +221,14 @@ def _collide(world, route):
     listed = listed_pairs(m, world.model.nbody)
     args = (m, s.body_pos[0], s.body_quat[0], np.zeros((ng, 3)), np.zeros((ng, 4)), lo, hi,
             pairs, view, np.int64(0), prev, world.contact_margin)
+    rest = (np.zeros(world.model.nbody), 0.0)
     if route == "listed-noalloc":
-        status, n = collide_listed(*args, listed)
+        status, n = collide_listed(*args, listed, *rest)
     elif route == "listed":
-        status, n = collide_world(*args, BROADPHASES["sap"], listed)
+        status, n = collide_world(*args, BROADPHASES["sap"], listed, *rest)
     else:
-        status, n = collide_world(*args, BROADPHASES[route], np.zeros((0, 2), np.int32))
+        status, n = collide_world(*args, BROADPHASES[route], np.zeros((0, 2), np.int32),
+                                  *rest)
     assert status == 0
     return view.geom[:n].copy(), view.depth[:n].copy(), view.point[:n].copy()
 

@@ -4,6 +4,8 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
+from ..._jit import noalloc
+
 ContactArrays = namedtuple("ContactArrays", [
     "geom",         # (..., C, 2) int32 geoms A, B
     "body",         # (..., C, 2) int32 their bodies (-1: the world)
@@ -40,3 +42,29 @@ def make_contacts_nb(capacity):
         np.zeros((capacity, 3)), np.zeros((capacity, 3)), np.zeros(capacity),
         np.zeros(capacity, np.int64), np.zeros(capacity), np.zeros(capacity),
         np.zeros((capacity, NIMPULSE)))
+
+
+@noalloc
+def copy_contact(src, i, dst, j):
+    """Contact ``i`` of ``src`` into slot ``j`` of ``dst`` (one world's ContactArrays
+    each; the same one moves a contact within a world)."""
+    for k in range(2):
+        dst.geom[j, k] = src.geom[i, k]
+        dst.body[j, k] = src.body[i, k]
+    for k in range(3):
+        dst.point[j, k] = src.point[i, k]
+        dst.normal[j, k] = src.normal[i, k]
+    dst.depth[j] = src.depth[i]
+    dst.feature[j] = src.feature[i]
+    dst.friction[j] = src.friction[i]
+    dst.restitution[j] = src.restitution[i]
+    for k in range(src.impulse.shape[1]):
+        dst.impulse[j, k] = src.impulse[i, k]
+
+
+@njit(cache=True, inline="always")
+def pair_before(a, i, b, j):
+    """Whether contact ``i`` of ``a`` comes before contact ``j`` of ``b`` in pair order
+    (by geom A, then geom B), the order the narrow phase writes them in."""
+    return a.geom[i, 0] < b.geom[j, 0] or (a.geom[i, 0] == b.geom[j, 0]
+                                           and a.geom[i, 1] < b.geom[j, 1])

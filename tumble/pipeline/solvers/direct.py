@@ -24,26 +24,15 @@ from .pgs import solve_pgs
 from .tree import cached_tree_plan, make_plan_cache, tree_factor, tree_solve
 
 
-@noalloc
+@njit(cache=True, inline="always")
 def cholesky_factor(a, n, work, redundant=0.0):
     """Lower Cholesky factor of the symmetric positive definite ``a[:n, :n]`` into ``work``.
     Returns False when ``a`` is not positive definite (to working precision), or when a
     pivot falls below ``redundant`` times its diagonal entry (rows that depend on others)."""
-    for i in range(n):
-        for k in range(i + 1):
-            s = a[i, k]
-            for t in range(k):
-                s -= work[i, t] * work[k, t]
-            if i == k:
-                if s <= 1e-300 or s <= redundant * a[i, i]:
-                    return False
-                work[i, i] = np.sqrt(s)
-            else:
-                work[i, k] = s / work[k, k]
-    return True
+    return _cholesky(a, n, work, redundant, False) == 0
 
 
-@noalloc
+@njit(cache=True, inline="always")
 def cholesky_factor_dropping(a, n, work, redundant):
     """``cholesky_factor`` of a positive semi-definite ``a[:n, :n]`` whose dependent rows
     are dropped: a row whose pivot falls to ``redundant`` times its diagonal entry (it
@@ -52,6 +41,13 @@ def cholesky_factor_dropping(a, n, work, redundant):
     it 0 and solves the others. Returns the number of rows dropped, or -1 when ``a`` is
     not positive semi-definite. Whether the dropped rows' equations hold is the caller's
     to check (they do when ``b`` is consistent)."""
+    return _cholesky(a, n, work, redundant, True)
+
+
+@noalloc
+def _cholesky(a, n, work, redundant, drop):
+    """Both factorisations above: the number of rows dropped (only with ``drop``), or -1
+    when a pivot fails."""
     dropped = 0
     for i in range(n):
         for k in range(i + 1):
@@ -60,12 +56,12 @@ def cholesky_factor_dropping(a, n, work, redundant):
                 s -= work[i, t] * work[k, t]
             if i != k:
                 work[i, k] = s / work[k, k]
-            elif abs(s) <= redundant * a[i, i]:
+            elif drop and abs(s) <= redundant * a[i, i]:
                 for t in range(i):
                     work[i, t] = 0.0
                 work[i, i] = np.inf
                 dropped += 1
-            elif s <= 1e-300:
+            elif s <= 1e-300 or s <= redundant * a[i, i]:
                 return -1
             else:
                 work[i, i] = np.sqrt(s)

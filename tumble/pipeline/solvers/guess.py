@@ -245,12 +245,10 @@ def _dropped_rows_hold(mat, rhs, fac, x, n):
     """Whether the rows ``cholesky_factor_dropping`` dropped (infinite pivot in ``fac``)
     still hold in ``mat[:n, :n] x = rhs`` to 1e-9 of the system's scale."""
     scale = 1e-300
-    xmax = 0.0
+    xmax = dmax = 0.0
     for u in range(n):
         scale = max(scale, abs(rhs[u]))
         xmax = max(xmax, abs(x[u]))
-    dmax = 0.0
-    for u in range(n):
         dmax = max(dmax, abs(mat[u, u]))
     tol = 1e-9 * (scale + dmax * xmax)
     for u in range(n):

@@ -20,14 +20,16 @@ def solve_pgs(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, iteration
     step's on exit. Sweeps stop when no impulse changes by more than ``tolerance`` (N s).
     """
     dv = np.zeros((nrow, 12))
-    diag = np.zeros(nrow)
+    inv_diag = np.zeros(nrow)
     return _pgs(rows, nrow, Bodies(inv_mass, inv_inertia, vel, angvel), impulse, iterations,
-                tolerance, warm_start, dv, diag)
+                tolerance, warm_start, dv, inv_diag)
 
 
 @noalloc
-def _pgs(rows, nrow, bodies, impulse, iterations, tolerance, warm_start, dv, diag):
-    """``solve_pgs`` with its work arrays: dv (nrow, 12), diag (nrow,) zeroed."""
+def _pgs(rows, nrow, bodies, impulse, iterations, tolerance, warm_start, dv, inv_diag):
+    """``solve_pgs`` with its work arrays: dv (nrow, 12) and inv_diag (nrow,), which
+    receive each row's ``M^-1 J^T`` and ``1 / (J M^-1 J^T + cfm)`` (0 for a row that moves
+    nothing)."""
     inv_mass, inv_inertia = bodies.inv_mass, bodies.inv_inertia
     vel, angvel = bodies.vel, bodies.angvel
     for r in range(nrow):
@@ -38,7 +40,7 @@ def _pgs(rows, nrow, bodies, impulse, iterations, tolerance, warm_start, dv, dia
         a = rows.cfm[r]
         for k in range(12):
             a += rows.J[r, k] * dv[r, k]
-        diag[r] = a
+        inv_diag[r] = 1.0 / a if a > 0.0 else 0.0
         if rows.parent[r] >= 0:
             continue                                   # friction: warm-started below
         if warm_start:
@@ -49,7 +51,7 @@ def _pgs(rows, nrow, bodies, impulse, iterations, tolerance, warm_start, dv, dia
             impulse[r] = 0.0
     # friction rows after their normals, whose impulses set their bounds
     for r in range(nrow):
-        if rows.parent[r] < 0 or diag[r] <= 0.0:
+        if rows.parent[r] < 0 or inv_diag[r] <= 0.0:
             continue
         b = rows.mu[r] * max(impulse[rows.parent[r]], 0.0)
         rows.lo[r], rows.hi[r] = -b, b
@@ -59,20 +61,89 @@ def _pgs(rows, nrow, bodies, impulse, iterations, tolerance, warm_start, dv, dia
     sweeps = 0
     for it in range(iterations):
         sweeps = it + 1
-        biggest = 0.0
-        for r in range(nrow):
-            if diag[r] <= 0.0:
-                continue
-            if rows.parent[r] >= 0:
-                b = rows.mu[r] * max(impulse[rows.parent[r]], 0.0)
-                rows.lo[r], rows.hi[r] = -b, b
-            residual = rows.rhs[r] - row_velocity(rows, r, vel, angvel) - rows.cfm[r] * impulse[r]
-            p = min(max(impulse[r] + residual / diag[r], rows.lo[r]), rows.hi[r])
-            delta = p - impulse[r]
-            if delta != 0.0:
-                impulse[r] = p
-                apply_impulse(rows, r, dv[r], delta, vel, angvel)
-                biggest = max(biggest, abs(delta))
-        if biggest <= tolerance:
+        if _sweep(rows, nrow, impulse, dv, inv_diag, vel, angvel) <= tolerance:
             break
     return sweeps
+
+
+@noalloc
+def _sweep(rows, nrow, impulse, dv, inv_diag, vel, angvel):
+    """One Gauss-Seidel sweep over the rows; returns the largest impulse change.
+
+    Consecutive rows on the same two bodies (a contact's normal and friction rows, a
+    joint's rows, a body servo's) are swept with the bodies' velocities held in locals and
+    stored once: a contact's three rows load and store them once."""
+    biggest = 0.0
+    r = 0
+    while r < nrow:
+        a, b = rows.body_a[r], rows.body_b[r]
+        end = r + 1
+        while end < nrow and rows.body_a[end] == a and rows.body_b[end] == b:
+            end += 1
+        if a == b:                                     # never made; kept exact anyway
+            end = r + 1
+            biggest = max(biggest, _row_update(rows, r, impulse, dv, inv_diag, vel, angvel))
+            r = end
+            continue
+        va = wa = vb = wb = (0.0, 0.0, 0.0)
+        if a >= 0:
+            va = (vel[a, 0], vel[a, 1], vel[a, 2])
+            wa = (angvel[a, 0], angvel[a, 1], angvel[a, 2])
+        if b >= 0:
+            vb = (vel[b, 0], vel[b, 1], vel[b, 2])
+            wb = (angvel[b, 0], angvel[b, 1], angvel[b, 2])
+        for q in range(r, end):
+            if inv_diag[q] <= 0.0:
+                continue
+            if rows.parent[q] >= 0:
+                bound = rows.mu[q] * max(impulse[rows.parent[q]], 0.0)
+                rows.lo[q], rows.hi[q] = -bound, bound
+            j = rows.J[q]
+            # summed as a tree: the sweep is bound by this chain's latency, row after row
+            sa = sb = 0.0
+            if a >= 0:
+                sa = ((j[0] * va[0] + j[1] * va[1]) + j[2] * va[2]) + \
+                    ((j[3] * wa[0] + j[4] * wa[1]) + j[5] * wa[2])
+            if b >= 0:
+                sb = ((j[6] * vb[0] + j[7] * vb[1]) + j[8] * vb[2]) + \
+                    ((j[9] * wb[0] + j[10] * wb[1]) + j[11] * wb[2])
+            residual = rows.rhs[q] - (sa + sb) - rows.cfm[q] * impulse[q]
+            p = min(max(impulse[q] + residual * inv_diag[q], rows.lo[q]), rows.hi[q])
+            delta = p - impulse[q]
+            if delta != 0.0:
+                impulse[q] = p
+                d = dv[q]
+                if a >= 0:
+                    va = (va[0] + d[0] * delta, va[1] + d[1] * delta, va[2] + d[2] * delta)
+                    wa = (wa[0] + d[3] * delta, wa[1] + d[4] * delta, wa[2] + d[5] * delta)
+                if b >= 0:
+                    vb = (vb[0] + d[6] * delta, vb[1] + d[7] * delta, vb[2] + d[8] * delta)
+                    wb = (wb[0] + d[9] * delta, wb[1] + d[10] * delta, wb[2] + d[11] * delta)
+                biggest = max(biggest, abs(delta))
+        if a >= 0:
+            for k in range(3):
+                vel[a, k] = va[k]
+                angvel[a, k] = wa[k]
+        if b >= 0:
+            for k in range(3):
+                vel[b, k] = vb[k]
+                angvel[b, k] = wb[k]
+        r = end
+    return biggest
+
+
+@noalloc
+def _row_update(rows, r, impulse, dv, inv_diag, vel, angvel):
+    """Row ``r``'s Gauss-Seidel update alone; returns its impulse change's size."""
+    if inv_diag[r] <= 0.0:
+        return 0.0
+    if rows.parent[r] >= 0:
+        bound = rows.mu[r] * max(impulse[rows.parent[r]], 0.0)
+        rows.lo[r], rows.hi[r] = -bound, bound
+    residual = rows.rhs[r] - row_velocity(rows, r, vel, angvel) - rows.cfm[r] * impulse[r]
+    p = min(max(impulse[r] + residual * inv_diag[r], rows.lo[r]), rows.hi[r])
+    delta = p - impulse[r]
+    if delta != 0.0:
+        impulse[r] = p
+        apply_impulse(rows, r, dv[r], delta, vel, angvel)
+    return abs(delta)
