@@ -60,7 +60,7 @@ ENGINES = {
 # Each engine at its best setting for the scene (bench/README.md): MuJoCo's default Newton
 # solver takes ~25x longer than CG on the 1000 spheres; tumble's default direct solver is
 # dense, seconds a step with a thousand contacts, where PGS takes tens of milliseconds.
-BEST_VARIANT = {("mujoco", "spheres"): "cg", ("tumble", "pyramid"): "pgs",
+BEST_VARIANT = {("mujoco", "spheres"): "cg", ("tumble", "pyramid"): "pgs50",
                 ("tumble", "spheres"): "pgs", ("tumble", "ragdoll600pd"): "implicit-pd",
                 ("tumble", "ragdoll1920pd"): "implicit-pd"}
 # Steps of each scene the stage profile runs (the whole scene for the cheap ones).

@@ -312,7 +312,7 @@ def test_awake_contacts_go_first_and_merge_back_into_pair_order(pairs, awake, pe
         depths = con.depth[list(part)]
         assert np.all(np.diff(depths) > 0)
     state = namedtuple("S", ["contact_count"])(np.array([cap], np.int64))
-    keep_previous_contacts(state, con, prev)
+    keep_previous_contacts(state, con, prev, True)
     for field, a, b in zip(con._fields, original, prev):
         assert np.array_equal(a, b), field
 

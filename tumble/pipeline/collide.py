@@ -257,6 +257,12 @@ def _record_contacts(m, ga, gb, con, count, n, prev_count, prev, p, reach):
         con.body[c, 1] = m.geom_body[gb]
         con.friction[c] = max(m.geom_friction[ga], m.geom_friction[gb])
         con.restitution[c] = max(m.geom_restitution[ga], m.geom_restitution[gb])
+        # mostly the manifold is last step's, in the same order
+        q0 = p + c - count
+        if q0 < end and prev.feature[q0] == con.feature[c]:
+            for k in range(con.impulse.shape[1]):
+                con.impulse[c, k] = prev.impulse[q0, k]
+            continue
         match = -1
         nearest = reach * reach
         for q in range(p, end):

@@ -77,11 +77,12 @@ def _lap(o, stage_ticks, stage, t0):
 # count a reference to each of their ~120 arrays at every step.
 
 @noalloc
-def keep_previous_contacts(s, con, prev):
+def keep_previous_contacts(s, con, prev, sleeping):
     """Collide, first part: last step's contacts of world ``s`` copied to ``prev`` in pair
-    order, which the narrow phase matches for warm starts (and takes whole for a pair of
-    sleeping bodies). The sleep stage may have moved the sleeping contacts behind the
-    awake ones: two runs in pair order, merged back into one."""
+    order, which the narrow phase matches for warm starts: geoms, feature ids, points and
+    impulses, and with ``sleeping`` on everything (a pair of sleeping bodies takes its
+    contacts whole). The sleep stage may have moved the sleeping contacts behind the awake
+    ones: two runs in pair order, merged back into one."""
     n = s.contact_count[0]
     split = n
     for c in range(1, n):
@@ -91,11 +92,20 @@ def keep_previous_contacts(s, con, prev):
     i, j = 0, split
     for q in range(n):
         if j >= n or (i < split and pair_before(con, i, con, j)):
-            copy_contact(con, i, prev, q)
+            src = i
             i += 1
         else:
-            copy_contact(con, j, prev, q)
+            src = j
             j += 1
+        if sleeping:
+            copy_contact(con, src, prev, q)
+        else:
+            prev.geom[q, 0], prev.geom[q, 1] = con.geom[src, 0], con.geom[src, 1]
+            prev.feature[q] = con.feature[src]
+            for k in range(3):
+                prev.point[q, k] = con.point[src, k]
+            for k in range(con.impulse.shape[1]):
+                prev.impulse[q, k] = con.impulse[src, k]
 
 
 @noalloc
@@ -200,7 +210,7 @@ def step_worlds(m, s, c, con, pairs, n, o, work):
             # collide
             ncon = np.int64(0)
             if ng > 1:
-                keep_previous_contacts(sw, conw, work.prev)
+                keep_previous_contacts(sw, conw, work.prev, o.sleep_time > 0.0)
                 if work.listed_primitive:
                     code, ncon = find_listed_contacts(m, sw, conw, pairs, o, work)
                 else:
