@@ -218,14 +218,22 @@ def _still(m, g, rest, sleep_time):
     return m.body_kind[b] == DYNAMIC and rest[b] >= sleep_time
 
 
+@njit(cache=True, inline="always")
+def _seek_pair(prev, prev_count, p, ga, gb):
+    """The cursor ``p`` into last step's contacts (in pair order) moved to the first of
+    pair (ga, gb), or to where it would be."""
+    while p < prev_count and (prev.geom[p, 0] < ga
+                              or (prev.geom[p, 0] == ga and prev.geom[p, 1] < gb)):
+        p += 1
+    return p
+
+
 @noalloc
 def _keep_contacts(ga, gb, con, count, prev_count, prev, p):
     """Last step's contacts of the pair (ga, gb) (``prev``, in pair order; ``p`` the
     cursor into them) copied whole into ``con`` from ``count`` on: the pair has not moved,
     so the narrow phase would find them again. Returns (count, p) advanced."""
-    while p < prev_count and (prev.geom[p, 0] < ga
-                              or (prev.geom[p, 0] == ga and prev.geom[p, 1] < gb)):
-        p += 1
+    p = _seek_pair(prev, prev_count, p, ga, gb)
     while p < prev_count and prev.geom[p, 0] == ga and prev.geom[p, 1] == gb:
         copy_contact(prev, p, con, count)
         count += 1
@@ -244,9 +252,7 @@ def _record_contacts(m, ga, gb, con, count, n, prev_count, prev, p, reach):
     The second rule keeps a warm start when a manifold's points stay but their ids
     change: two boxes face to face pick either box's face as the reference as rounding
     tips the tie (4-6% of the 210-box pyramid's contacts lost their impulses each step)."""
-    while p < prev_count and (prev.geom[p, 0] < ga
-                              or (prev.geom[p, 0] == ga and prev.geom[p, 1] < gb)):
-        p += 1
+    p = _seek_pair(prev, prev_count, p, ga, gb)
     end = p
     while end < prev_count and prev.geom[end, 0] == ga and prev.geom[end, 1] == gb:
         end += 1

@@ -97,15 +97,7 @@ def keep_previous_contacts(s, con, prev, sleeping):
         else:
             src = j
             j += 1
-        if sleeping:
-            copy_contact(con, src, prev, q)
-        else:
-            prev.geom[q, 0], prev.geom[q, 1] = con.geom[src, 0], con.geom[src, 1]
-            prev.feature[q] = con.feature[src]
-            for k in range(3):
-                prev.point[q, k] = con.point[src, k]
-            for k in range(con.impulse.shape[1]):
-                prev.impulse[q, k] = con.impulse[src, k]
+        copy_contact(con, src, prev, q, sleeping)
 
 
 @noalloc

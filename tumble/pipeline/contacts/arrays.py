@@ -45,21 +45,25 @@ def make_contacts_nb(capacity):
 
 
 @noalloc
-def copy_contact(src, i, dst, j):
+def copy_contact(src, i, dst, j, whole=True):
     """Contact ``i`` of ``src`` into slot ``j`` of ``dst`` (one world's ContactArrays
-    each; the same one moves a contact within a world)."""
+    each; the same one moves a contact within a world); without ``whole`` only what the
+    narrow phase matches a new contact by: geoms, feature id, point and impulses."""
     for k in range(2):
         dst.geom[j, k] = src.geom[i, k]
-        dst.body[j, k] = src.body[i, k]
     for k in range(3):
         dst.point[j, k] = src.point[i, k]
-        dst.normal[j, k] = src.normal[i, k]
-    dst.depth[j] = src.depth[i]
     dst.feature[j] = src.feature[i]
-    dst.friction[j] = src.friction[i]
-    dst.restitution[j] = src.restitution[i]
     for k in range(src.impulse.shape[1]):
         dst.impulse[j, k] = src.impulse[i, k]
+    if whole:
+        for k in range(2):
+            dst.body[j, k] = src.body[i, k]
+        for k in range(3):
+            dst.normal[j, k] = src.normal[i, k]
+        dst.depth[j] = src.depth[i]
+        dst.friction[j] = src.friction[i]
+        dst.restitution[j] = src.restitution[i]
 
 
 @njit(cache=True, inline="always")

@@ -8,7 +8,7 @@ import numpy as np
 from numba import njit
 
 from ..._jit import noalloc
-from .common import Bodies, apply_impulse, minv_jt, row_active, row_velocity
+from .common import Bodies, apply_impulse, minv_jt, row_active
 
 
 @njit(cache=True)
@@ -72,7 +72,8 @@ def _sweep(rows, nrow, impulse, dv, inv_diag, vel, angvel):
 
     Consecutive rows on the same two bodies (a contact's normal and friction rows, a
     joint's rows, a body servo's) are swept with the bodies' velocities held in locals and
-    stored once: a contact's three rows load and store them once."""
+    stored once: a contact's three rows load and store them once. (No row joins a body to
+    itself: the builder refuses such joints and collision filters such pairs.)"""
     biggest = 0.0
     r = 0
     while r < nrow:
@@ -80,11 +81,6 @@ def _sweep(rows, nrow, impulse, dv, inv_diag, vel, angvel):
         end = r + 1
         while end < nrow and rows.body_a[end] == a and rows.body_b[end] == b:
             end += 1
-        if a == b:                                     # never made; kept exact anyway
-            end = r + 1
-            biggest = max(biggest, _row_update(rows, r, impulse, dv, inv_diag, vel, angvel))
-            r = end
-            continue
         va = wa = vb = wb = (0.0, 0.0, 0.0)
         if a >= 0:
             va = (vel[a, 0], vel[a, 1], vel[a, 2])
@@ -131,19 +127,3 @@ def _sweep(rows, nrow, impulse, dv, inv_diag, vel, angvel):
         r = end
     return biggest
 
-
-@noalloc
-def _row_update(rows, r, impulse, dv, inv_diag, vel, angvel):
-    """Row ``r``'s Gauss-Seidel update alone; returns its impulse change's size."""
-    if inv_diag[r] <= 0.0:
-        return 0.0
-    if rows.parent[r] >= 0:
-        bound = rows.mu[r] * max(impulse[rows.parent[r]], 0.0)
-        rows.lo[r], rows.hi[r] = -bound, bound
-    residual = rows.rhs[r] - row_velocity(rows, r, vel, angvel) - rows.cfm[r] * impulse[r]
-    p = min(max(impulse[r] + residual * inv_diag[r], rows.lo[r]), rows.hi[r])
-    delta = p - impulse[r]
-    if delta != 0.0:
-        impulse[r] = p
-        apply_impulse(rows, r, dv[r], delta, vel, angvel)
-    return abs(delta)
