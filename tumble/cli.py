@@ -4,10 +4,14 @@ recordings and videos (see ``tumble.viewer.sources`` for what MODEL may be; a tr
 policy file is one), ``tumble train imitate CLIP`` trains a policy (needs ``tumble[rl]``)
 and ``tumble play POLICY`` shows it in the browser viewer."""
 import argparse
+import functools
 import importlib.util
 import math
 import os
 import sys
+
+# training lines go out as they are written, also into a log file (--no-progress)
+_say = functools.partial(print, flush=True)
 
 
 def _demo(args):
@@ -141,7 +145,7 @@ def _train(args):
         # the run goes on as it was configured; only its length and schedule (and the AMP
         # command settings, a curriculum) may change
         overrides = env_settings or None
-        trainer = make_trainer(out, None, resume=True, progress=progress, log=print,
+        trainer = make_trainer(out, None, resume=True, progress=progress, log=_say,
                                env_overrides=overrides)
         c = trainer.config
         ignored = [f"{flag} {value}" for flag, value, kept in (
@@ -180,7 +184,7 @@ def _train(args):
             config = TrainConfig.for_task("imitate", clip=clip, **given)
         print(f"tumble train: {args.task} {clip!r} with {config.num_envs} characters, "
               f"{config.iterations} iterations, in {out}", flush=True)
-        trainer = make_trainer(out, config, progress=progress, log=print)
+        trainer = make_trainer(out, config, progress=progress, log=_say)
     try:
         trainer.run(max_hours=args.hours)
     except KeyboardInterrupt:
