@@ -219,13 +219,16 @@ def _still(m, g, rest, sleep_time):
 
 
 @njit(cache=True, inline="always")
-def _seek_pair(prev, prev_count, p, ga, gb):
-    """The cursor ``p`` into last step's contacts (in pair order) moved to the first of
-    pair (ga, gb), or to where it would be."""
+def _pair_run(prev, prev_count, p, ga, gb):
+    """Where last step's contacts (in pair order) of pair (ga, gb) lie: ``prev[start:end]``,
+    found from the cursor ``p`` on (empty, at the place they would be, if none)."""
     while p < prev_count and (prev.geom[p, 0] < ga
                               or (prev.geom[p, 0] == ga and prev.geom[p, 1] < gb)):
         p += 1
-    return p
+    end = p
+    while end < prev_count and prev.geom[end, 0] == ga and prev.geom[end, 1] == gb:
+        end += 1
+    return p, end
 
 
 @noalloc
@@ -233,12 +236,10 @@ def _keep_contacts(ga, gb, con, count, prev_count, prev, p):
     """Last step's contacts of the pair (ga, gb) (``prev``, in pair order; ``p`` the
     cursor into them) copied whole into ``con`` from ``count`` on: the pair has not moved,
     so the narrow phase would find them again. Returns (count, p) advanced."""
-    p = _seek_pair(prev, prev_count, p, ga, gb)
-    while p < prev_count and prev.geom[p, 0] == ga and prev.geom[p, 1] == gb:
-        copy_contact(prev, p, con, count)
-        count += 1
-        p += 1
-    return count, p
+    p, end = _pair_run(prev, prev_count, p, ga, gb)
+    for q in range(p, end):
+        copy_contact(prev, q, con, count + q - p)
+    return count + end - p, end
 
 
 @noalloc
@@ -252,10 +253,7 @@ def _record_contacts(m, ga, gb, con, count, n, prev_count, prev, p, reach):
     The second rule keeps a warm start when a manifold's points stay but their ids
     change: two boxes face to face pick either box's face as the reference as rounding
     tips the tie (4-6% of the 210-box pyramid's contacts lost their impulses each step)."""
-    p = _seek_pair(prev, prev_count, p, ga, gb)
-    end = p
-    while end < prev_count and prev.geom[end, 0] == ga and prev.geom[end, 1] == gb:
-        end += 1
+    p, end = _pair_run(prev, prev_count, p, ga, gb)
     for c in range(count, count + n):
         con.geom[c, 0] = ga
         con.geom[c, 1] = gb

@@ -53,8 +53,7 @@ def _pgs(rows, nrow, bodies, impulse, iterations, tolerance, warm_start, dv, inv
     for r in range(nrow):
         if rows.parent[r] < 0 or inv_diag[r] <= 0.0:
             continue
-        b = rows.mu[r] * max(impulse[rows.parent[r]], 0.0)
-        rows.lo[r], rows.hi[r] = -b, b
+        b = _friction_bounds(rows, impulse, r)
         p = min(max(impulse[r], -b), b) if warm_start else 0.0
         impulse[r] = p
         apply_impulse(rows, r, dv[r], p, vel, angvel)
@@ -64,6 +63,15 @@ def _pgs(rows, nrow, bodies, impulse, iterations, tolerance, warm_start, dv, inv
         if _sweep(rows, nrow, impulse, dv, inv_diag, vel, angvel) <= tolerance:
             break
     return sweeps
+
+
+@njit(cache=True, inline="always")
+def _friction_bounds(rows, impulse, r):
+    """Friction row ``r``'s bounds ``-+ mu p_n`` from its normal's impulse, written into
+    ``rows.lo``, ``rows.hi``; returns ``mu p_n``."""
+    bound = rows.mu[r] * max(impulse[rows.parent[r]], 0.0)
+    rows.lo[r], rows.hi[r] = -bound, bound
+    return bound
 
 
 @noalloc
@@ -92,8 +100,7 @@ def _sweep(rows, nrow, impulse, dv, inv_diag, vel, angvel):
             if inv_diag[q] <= 0.0:
                 continue
             if rows.parent[q] >= 0:
-                bound = rows.mu[q] * max(impulse[rows.parent[q]], 0.0)
-                rows.lo[q], rows.hi[q] = -bound, bound
+                _friction_bounds(rows, impulse, q)
             j = rows.J[q]
             # summed as a tree: the sweep is bound by this chain's latency, row after row
             sa = sb = 0.0
@@ -126,4 +133,3 @@ def _sweep(rows, nrow, impulse, dv, inv_diag, vel, angvel):
                 angvel[b, k] = wb[k]
         r = end
     return biggest
-
