@@ -162,8 +162,6 @@ def _train(args):
             c.eval_every = args.eval_every
         if args.fixed_std is not None:
             trainer.fix_std(args.fixed_std)
-        if args.gamma is not None:
-            trainer.set_gamma(args.gamma)
     else:
         if os.path.exists(checkpoint):
             # never overwrite a run (it may be training right now): appended logs and a
@@ -176,8 +174,6 @@ def _train(args):
                  if v is not None}
         if args.fixed_std is not None:
             given.update(init_std=args.fixed_std, learn_std=False)
-        if args.gamma is not None:
-            given["gamma"] = args.gamma
         if args.task == "amp":
             if args.init_from:
                 given["init_from"] = args.init_from
@@ -229,10 +225,6 @@ def _run_options(parser, default_dir, *, envs):
     parser.add_argument("--fixed-std", type=_positive(float), metavar="S",
                         help="hold the policy's action noise at S instead of learning it (as "
                              "the AMP paper does); with --resume it replaces the run's")
-    parser.add_argument("--gamma", type=_in_open_unit, metavar="G",
-                        help="PPO's discount, in (0, 1) (default 0.95: a horizon of 1/(1-G) "
-                             "policy steps, 0.67 s at 30 Hz); with --resume it replaces the "
-                             "run's and the critic alone trains for 40 iterations")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("--workers", type=_positive(int), metavar="K",
                         help="collect the samples in K Ray workers of N characters each "
@@ -306,17 +298,6 @@ def _degrees_in(low, high):
             raise argparse.ArgumentTypeError(f"must be in [{low:g}, {high:g}], got {text!r}")
         return v
     return parse
-
-
-def _in_open_unit(text):
-    """An argparse type: a number strictly between 0 and 1."""
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}")
-    if not 0.0 < v < 1.0:
-        raise argparse.ArgumentTypeError(f"must be in (0, 1), got {text!r}")
-    return v
 
 
 def _non_negative(kind):

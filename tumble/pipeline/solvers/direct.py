@@ -47,12 +47,18 @@ def cholesky_factor_dropping(a, n, work, redundant):
 @noalloc
 def _cholesky(a, n, work, redundant, drop):
     """Both factorisations above: the number of rows dropped (only with ``drop``), or -1
-    when a pivot fails."""
+    when a pivot fails. The factor of a row keeps the row's leading zeros (its envelope:
+    rows sorted by body pair make a band), so the work is skipped there and each dot
+    product starts at the row's first entry; the products skipped are exact zeros, so
+    the factor is the dense one to the bit."""
     dropped = 0
     for i in range(n):
-        for k in range(i + 1):
+        first = _first_entry(a, i)
+        for k in range(first):
+            work[i, k] = 0.0
+        for k in range(first, i + 1):
             s = a[i, k]
-            for t in range(k):
+            for t in range(first, k):
                 s -= work[i, t] * work[k, t]
             if i != k:
                 work[i, k] = s / work[k, k]
@@ -68,13 +74,23 @@ def _cholesky(a, n, work, redundant, drop):
     return dropped
 
 
+@njit(cache=True, inline="always")
+def _first_entry(m, i):
+    """The column of row ``i``'s first nonzero entry left of the diagonal (``i`` if none)."""
+    k = 0
+    while k < i and m[i, k] == 0.0:
+        k += 1
+    return k
+
+
 @noalloc
 def cholesky_apply(work, b, n, x):
     """``x[:n] = (L L^T)^-1 b[:n]`` with the factor ``L`` of ``cholesky_factor`` (or of
-    ``cholesky_factor_dropping``: a dropped row's infinite pivot makes its ``x`` 0)."""
+    ``cholesky_factor_dropping``: a dropped row's infinite pivot makes its ``x`` 0). The
+    forward pass starts each row at its first entry (a banded factor's work is O(n b))."""
     for i in range(n):
         s = b[i]
-        for t in range(i):
+        for t in range(_first_entry(work, i), i):
             s -= work[i, t] * x[t]
         x[i] = s / work[i, i]
     for i in range(n - 1, -1, -1):
@@ -111,27 +127,56 @@ def row_responses(rows, idx, n, inv_mass, inv_inertia, vel, angvel, dv, b):
 @noalloc
 def assemble(rows, idx, n, inv_mass, inv_inertia, vel, angvel, dv, A, b):
     """Fill ``dv`` (n, 12) with ``M^-1 J^T``, ``A`` (n, n) with ``J M^-1 J^T + CFM`` and
-    ``b`` (n,) with ``rhs - J v`` for the rows ``idx[:n]``."""
+    ``b`` (n,) with ``rhs - J v`` for the rows ``idx[:n]``. Rows come in runs on the same
+    two bodies (a contact's, a joint's): which sides of two runs share a body is found
+    once per block of runs, and a block sharing none is zero."""
     row_responses(rows, idx, n, inv_mass, inv_inertia, vel, angvel, dv, b)
-    for i in range(n):
-        ri = idx[i]
-        for k in range(i + 1):
-            rk = idx[k]
-            s = 0.0
+    i0 = np.int64(0)
+    while i0 < n:
+        i1 = _run_end(rows, idx, i0, n)
+        k0 = np.int64(0)
+        while k0 <= i0:
+            k1 = _run_end(rows, idx, k0, n)
+            # the (row side, column side) pairs on a common body: none, one or two
+            ri, rk = idx[i0], idx[k0]
+            nshared = 0
+            oi0 = ok0 = oi1 = ok1 = 0
             for side_i in range(2):
                 bi = rows.body_a[ri] if side_i == 0 else rows.body_b[ri]
-                if bi < 0:
-                    continue
                 for side_k in range(2):
                     bk = rows.body_a[rk] if side_k == 0 else rows.body_b[rk]
-                    if bk != bi:
-                        continue
-                    oi, ok = 6 * side_i, 6 * side_k
-                    for t in range(6):
-                        s += rows.J[ri, oi + t] * dv[k, ok + t]
-            A[i, k] = s
-            A[k, i] = s
-        A[i, i] += rows.cfm[ri]
+                    if bi >= 0 and bi == bk:
+                        if nshared == 0:
+                            oi0, ok0 = 6 * side_i, 6 * side_k
+                        else:
+                            oi1, ok1 = 6 * side_i, 6 * side_k
+                        nshared += 1
+            for i in range(i0, i1):
+                r = idx[i]
+                for k in range(k0, min(k1, i + 1)):
+                    s = 0.0
+                    if nshared > 0:
+                        for t in range(6):
+                            s += rows.J[r, oi0 + t] * dv[k, ok0 + t]
+                    if nshared > 1:
+                        for t in range(6):
+                            s += rows.J[r, oi1 + t] * dv[k, ok1 + t]
+                    A[i, k] = s
+                    A[k, i] = s
+            k0 = k1
+        for i in range(i0, i1):
+            A[i, i] += rows.cfm[idx[i]]
+        i0 = i1
+
+
+@njit(cache=True, inline="always")
+def _run_end(rows, idx, i, n):
+    """One past the last of the rows ``idx[i:n]`` on the same two bodies as ``idx[i]``."""
+    a, b = rows.body_a[idx[i]], rows.body_b[idx[i]]
+    j = i + 1
+    while j < n and rows.body_a[idx[j]] == a and rows.body_b[idx[j]] == b:
+        j += 1
+    return j
 
 
 @noalloc

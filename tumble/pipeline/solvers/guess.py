@@ -18,8 +18,8 @@ putting a redundant corner's friction at the bound) is guessed at the bound agai
 ``guess_on_tree`` (``allow_bound``): its friction rows that carried impulse keep their signs,
 their impulses sum to ``mu p_n``, and they slip at the group's common rate ``lambda >= 0``
 (the pyramid's slack, ``pyramid.py``), which makes the held system unsymmetric (solved by
-Gaussian elimination). Redundant held rows (four coplanar contacts of a box) are left to
-Lemke.
+Gaussian elimination). Redundant held rows (four coplanar contacts of a box) are dropped
+by the factorisation (impulse 0) when the others satisfy them.
 """
 from collections import namedtuple
 
@@ -42,10 +42,13 @@ GUESS_TOL = 1e-10
 # Unknowns (held rows and sliding groups' slip rates) a guess with sliding contacts may
 # have; more go to Lemke (two feet of four sliding corners each: 32).
 SLIDE_UNKNOWNS = 64
-# Primal-dual corrections of the guess before Lemke takes over.
-_GUESS_ROUNDS = 4
+# Primal-dual corrections of the guess before Lemke takes over. A round costs one held
+# solve and one product with S; Lemke on the 10-box stack's 120 rows costs 25 of them,
+# and with 4 rounds a fifth of its steps went to Lemke (whose basis then kept the next
+# guesses failing), with 16 none.
+_GUESS_ROUNDS = 16
 # A pivot of the guess's Cholesky factor below this times its diagonal entry marks
-# redundant rows (four coplanar contacts of a box): Lemke picks a basis instead.
+# redundant rows (four coplanar contacts of a box): they are dropped (impulse 0).
 _REDUNDANT = 1e-10
 
 # states of a row in a guessed active set; SLIDE_*: a friction row at its group's bound,

@@ -270,11 +270,14 @@ def _mlcp_dense(rows, part, bodies, impulse, max_pivots):
     b = np.zeros(n)
     assemble(rows, idx, n, bodies.inv_mass, bodies.inv_inertia, bodies.vel, bodies.angvel,
              dv, A, b)
-    S = np.empty((nn, nn))
-    cvec = np.empty(nn)
     X = np.zeros((nb, nn + 1))                  # A_BB^-1 [A_BN | b_B]
-    if not schur_dense(A, b, part, X, S, cvec):
-        return LEMKE_BAD_INPUT
+    if nb == 0:
+        S, cvec = A, b                          # (oth is 0 .. n-1: nothing to eliminate)
+    else:
+        S = np.empty((nn, nn))
+        cvec = np.empty(nn)
+        if not schur_dense(A, b, part, X, S, cvec):
+            return LEMKE_BAD_INPUT
     p_n = np.zeros(nn)
     status = _lcp_on_schur(rows, part, S, cvec, impulse, max_pivots, p_n)
     if status != LEMKE_SOLVED:
