@@ -162,6 +162,8 @@ def _train(args):
             c.eval_every = args.eval_every
         if args.fixed_std is not None:
             trainer.fix_std(args.fixed_std)
+        if args.gamma is not None:
+            trainer.set_gamma(args.gamma)
     else:
         if os.path.exists(checkpoint):
             # never overwrite a run (it may be training right now): appended logs and a
@@ -174,6 +176,8 @@ def _train(args):
                  if v is not None}
         if args.fixed_std is not None:
             given.update(init_std=args.fixed_std, learn_std=False)
+        if args.gamma is not None:
+            given["gamma"] = args.gamma
         if args.task == "amp":
             if args.init_from:
                 given["init_from"] = args.init_from
@@ -225,6 +229,10 @@ def _run_options(parser, default_dir, *, envs):
     parser.add_argument("--fixed-std", type=_positive(float), metavar="S",
                         help="hold the policy's action noise at S instead of learning it (as "
                              "the AMP paper does); with --resume it replaces the run's")
+    parser.add_argument("--gamma", type=_in_open_unit, metavar="G",
+                        help="PPO's discount, in (0, 1) (default 0.95: a horizon of 1/(1-G) "
+                             "policy steps, 0.67 s at 30 Hz); with --resume it replaces the "
+                             "run's and the critic alone trains for 40 iterations")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("--workers", type=_positive(int), metavar="K",
                         help="collect the samples in K Ray workers of N characters each "
@@ -279,6 +287,8 @@ def _amp_env_settings(args):
     settings = {}
     if args.task_reward:
         settings["task_reward"] = args.task_reward
+    if args.task_scale is not None:
+        settings["task_scale"] = args.task_scale
     if args.max_turn is not None:
         settings["max_turn"] = math.radians(args.max_turn)
     if args.command_seconds is not None:
@@ -298,6 +308,17 @@ def _degrees_in(low, high):
             raise argparse.ArgumentTypeError(f"must be in [{low:g}, {high:g}], got {text!r}")
         return v
     return parse
+
+
+def _in_open_unit(text):
+    """An argparse type: a number strictly between 0 and 1."""
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}")
+    if not 0.0 < v < 1.0:
+        raise argparse.ArgumentTypeError(f"must be in (0, 1), got {text!r}")
+    return v
 
 
 def _non_negative(kind):
@@ -390,6 +411,9 @@ def main(argv=None):
                           "('vector', the default), as AMP's paper only a shortfall of the "
                           "speed along the commanded direction ('along'), or that speed "
                           "matched both ways ('speed')")
+    amp.add_argument("--task-scale", type=_positive(float), metavar="K",
+                     help="the task reward's sharpness k in exp(-k error^2), error in m/s "
+                          "(default 1: 0.2 m/s off still earns 0.96; 4: 0.85)")
     amp.add_argument("--max-turn", type=_degrees_in(0.0, 180.0), metavar="DEG",
                      help="largest heading change of a random command (default 180)")
     amp.add_argument("--command-seconds", type=_non_negative(float), nargs=2,
@@ -398,7 +422,7 @@ def main(argv=None):
                           "(default 2 5)")
     amp.add_argument("--speed-range", type=_non_negative(float), nargs=2, metavar=("LOW", "HIGH"),
                      help="commanded speeds (m/s), drawn uniformly (default 0.4 2.2); these "
-                          "four settings, given with --resume, replace the run's from then on "
+                          "five settings, given with --resume, replace the run's from then on "
                           "(a curriculum)")
     amp.set_defaults(func=_train)
 

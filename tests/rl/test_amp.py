@@ -425,13 +425,16 @@ def test_train_amp_from_the_command_line(tmp_path, capsys):
     # a curriculum: the random commands' settings change on resume, and reach the env
     assert main(["train", "amp", "--out", str(out), "--resume", "--iterations", "4",
                  "--task-reward", "speed", "--max-turn", "90", "--command-seconds", "4", "8",
-                 "--speed-range", "0.5", "2", "--no-progress"]) == 0
-    kw = torch.load(out / "checkpoint.pt", weights_only=False,
-                    map_location="cpu")["config"]["env_kwargs"]
+                 "--speed-range", "0.5", "2", "--task-scale", "4", "--gamma", "0.99",
+                 "--no-progress"]) == 0
+    saved = torch.load(out / "checkpoint.pt", weights_only=False, map_location="cpu")
+    kw = saved["config"]["env_kwargs"]
     assert kw["task_reward"] == "speed" and kw["max_turn"] == pytest.approx(math.pi / 2)
+    assert kw["task_scale"] == 4.0 and saved["config"]["gamma"] == 0.99
     assert tuple(kw["command_seconds"]) == (4.0, 8.0) and tuple(kw["speed_range"]) == (0.5, 2.0)
     trainer = Trainer(out, resume=True, progress=False, log=lambda *a: None)
     assert trainer.env.max_turn == pytest.approx(math.pi / 2)
     assert trainer.env.speed_range == (0.5, 2.0) and trainer.env.task_reward == "speed"
+    assert trainer.env.task_scale == 4.0 and trainer.alg.gamma == 0.99
     with pytest.raises(SystemExit):                        # a turn beyond 180 degrees
         main(["train", "amp", "--out", str(out), "--resume", "--max-turn", "200"])

@@ -146,3 +146,25 @@ def test_a_fixed_action_noise_stays_fixed_and_survives_resumes(tmp_path):
     np.testing.assert_allclose(_action_std(again), 0.07, rtol=1e-6)
     with pytest.raises(tumble.ModelError, match="noise"):
         again.fix_std(0.0)
+
+
+def test_a_new_discount_on_resume_trains_the_critic_first_and_is_kept(tmp_path):
+    """``set_gamma`` changes PPO's discount of a resumed run: for the warm-up iterations the
+    actor stays bit for bit while the critic learns the new returns; the next resume keeps
+    the new discount."""
+    train(tmp_path, config(learning_rate=1e-3, desired_kl=1.0), progress=False, log=_quiet)
+    resumed = Trainer(tmp_path, config(iterations=4), resume=True, progress=False, log=_quiet)
+    actor = {k: v.clone() for k, v in resumed.alg.actor.state_dict().items()}
+    critic = {k: v.clone() for k, v in resumed.alg.critic.state_dict().items()}
+    resumed.set_gamma(0.99, critic_iterations=2)
+    assert resumed.alg.gamma == 0.99 and resumed.config.critic_warmup == 4
+    resumed.run()
+    for k, v in resumed.alg.actor.state_dict().items():
+        assert (v == actor[k]).all(), k
+    assert any((v != critic[k]).any() for k, v in resumed.alg.critic.state_dict().items())
+    again = Trainer(tmp_path, config(iterations=5), resume=True, progress=False, log=_quiet)
+    assert again.alg.gamma == 0.99 and again.config.gamma == 0.99
+    again.run()
+    assert any((v != actor[k]).any() for k, v in again.alg.actor.state_dict().items())
+    with pytest.raises(tumble.ModelError, match="gamma"):
+        again.set_gamma(1.0)

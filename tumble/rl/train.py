@@ -473,6 +473,18 @@ class Trainer:
         param.requires_grad_(False)
         param.grad = None
 
+    def set_gamma(self, gamma, critic_iterations=40):
+        """Change the discount from here on (a longer horizon makes falls cost more); the
+        critic's values no longer fit the new returns, so for ``critic_iterations`` only the
+        critic trains (the actor stays as it was). Kept across resumes."""
+        if not (0.0 < gamma < 1.0):
+            raise ModelError(f"train: gamma must lie in (0, 1), got {gamma!r}")
+        if gamma == self.config.gamma:
+            return
+        self.config.gamma = self.alg.gamma = float(gamma)
+        self.config.critic_warmup = max(self.config.critic_warmup,
+                                        self.iteration + int(critic_iterations))
+
     def _make_sampler(self):
         """The worlds that collect the samples (here, in this process) and the learner."""
         c = self.config
