@@ -229,7 +229,8 @@ def _run_options(parser, default_dir, *, envs):
     parser.add_argument("--fixed-std", type=_positive(float), metavar="S",
                         help="hold the policy's action noise at S instead of learning it (as "
                              "the AMP paper does); with --resume it replaces the run's")
-    parser.add_argument("--gamma", type=_in_open_unit, metavar="G",
+    parser.add_argument("--gamma", metavar="G",
+                        type=_number(float, 0, 1, open_low=True, open_high=True),
                         help="PPO's discount, in (0, 1) (default 0.95: a horizon of 1/(1-G) "
                              "policy steps, 0.67 s at 30 Hz); with --resume it replaces the "
                              "run's and the critic alone trains for 40 iterations")
@@ -270,18 +271,6 @@ def _steering_controls(viewer, control):
               "turn buttons)", flush=True)
 
 
-def _positive(kind):
-    def parse(text):
-        try:
-            v = kind(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected a number, got {text!r}")
-        if not v > 0:
-            raise argparse.ArgumentTypeError(f"must be > 0, got {text!r}")
-        return v
-    return parse
-
-
 def _amp_env_settings(args):
     """The AMPEnv keywords the command line sets: task reward and the random commands."""
     settings = {}
@@ -298,42 +287,34 @@ def _amp_env_settings(args):
     return settings
 
 
-def _degrees_in(low, high):
-    def parse(text):
-        try:
-            v = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected degrees, got {text!r}")
-        if not low <= v <= high:
-            raise argparse.ArgumentTypeError(f"must be in [{low:g}, {high:g}], got {text!r}")
-        return v
-    return parse
-
-
-def _in_open_unit(text):
-    """An argparse type: a number strictly between 0 and 1."""
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}")
-    if not 0.0 < v < 1.0:
-        raise argparse.ArgumentTypeError(f"must be in (0, 1), got {text!r}")
-    return v
-
-
-def _non_negative(kind):
-    """An argparse type: a finite number of ``kind`` (int or float) >= 0."""
-    what = "an integer" if kind is int else "a number"
+def _number(kind=float, low=None, high=None, *, open_low=False, open_high=False, what=None):
+    """An argparse type: a finite number of ``kind`` (int or float) in [low, high], an end
+    that is None unbounded and ``open_low``/``open_high`` leaving that end out."""
+    noun = what or ("an integer" if kind is int else "a number")
+    if high is None:
+        wanted = f"{'>' if open_low else '>='} {low:g}"
+    else:
+        wanted = f"in {'(' if open_low else '['}{low:g}, {high:g}{')' if open_high else ']'}"
 
     def parse(text):
         try:
             v = kind(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}")
-        if not (math.isfinite(v) and v >= 0):
-            raise argparse.ArgumentTypeError(f"must be >= 0, got {text!r}")
+            raise argparse.ArgumentTypeError(f"expected {noun}, got {text!r}")
+        inside = (math.isfinite(v) and (v > low if open_low else v >= low) and
+                  (high is None or (v < high if open_high else v <= high)))
+        if not inside:
+            raise argparse.ArgumentTypeError(f"must be {wanted}, got {text!r}")
         return v
     return parse
+
+
+def _positive(kind):
+    return _number(kind, 0, open_low=True)
+
+
+def _non_negative(kind):
+    return _number(kind, 0)
 
 
 def main(argv=None):
@@ -414,7 +395,7 @@ def main(argv=None):
     amp.add_argument("--task-scale", type=_positive(float), metavar="K",
                      help="the task reward's sharpness k in exp(-k error^2), error in m/s "
                           "(default 1: 0.2 m/s off still earns 0.96; 4: 0.85)")
-    amp.add_argument("--max-turn", type=_degrees_in(0.0, 180.0), metavar="DEG",
+    amp.add_argument("--max-turn", type=_number(float, 0.0, 180.0, what="degrees"), metavar="DEG",
                      help="largest heading change of a random command (default 180)")
     amp.add_argument("--command-seconds", type=_non_negative(float), nargs=2,
                      metavar=("LOW", "HIGH"),

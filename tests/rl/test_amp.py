@@ -347,6 +347,8 @@ def test_evaluate_amp_reports_command_following(run):
     r = evaluate_amp(p, config(), episodes=2, seconds=7.0, window=3.5, turn_seconds=1.5)
     assert r["episodes"] == 2 and 0.0 < r["mean_seconds"] <= 7.0 + 1e-9
     assert r["joint_speed"] > 0.0
+    # the clips' joints (walk and run) move at a few rad/s RMS
+    assert 0.5 < r["clip_joint_speed"] < 10.0
 
 
 # -- playing and the command line -------------------------------------------------------------

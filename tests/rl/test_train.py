@@ -168,3 +168,19 @@ def test_a_new_discount_on_resume_trains_the_critic_first_and_is_kept(tmp_path):
     assert any((v != actor[k]).any() for k, v in again.alg.actor.state_dict().items())
     with pytest.raises(tumble.ModelError, match="gamma"):
         again.set_gamma(1.0)
+
+
+def test_a_log_gaining_a_column_on_resume_stays_aligned(tmp_path):
+    """A run resumed by a tumble that logs one more column rewrites its CSV with the
+    column (blank in the older rows) instead of appending misaligned rows."""
+    from types import SimpleNamespace
+
+    owner = SimpleNamespace(out_dir=tmp_path, _writer=None)
+    Trainer._csv(owner, "eval.csv", {"iteration": 50, "survived": 0.5})
+    Trainer._csv(owner, "eval.csv", {"iteration": 100, "survived": 0.75})
+    Trainer._csv(owner, "eval.csv", {"iteration": 150, "survived": 1.0, "clip_speed": 2.5})
+    Trainer._csv(owner, "eval.csv", {"iteration": 200, "survived": 1.0, "clip_speed": 2.5})
+    got = rows(tmp_path / "eval.csv")
+    assert [r["iteration"] for r in got] == ["50", "100", "150", "200"]
+    assert [r["survived"] for r in got] == ["0.5", "0.75", "1.0", "1.0"]
+    assert [r["clip_speed"] for r in got] == ["", "", "2.5", "2.5"]

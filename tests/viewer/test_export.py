@@ -53,6 +53,29 @@ def test_gif_has_every_frame_even_when_nothing_moves(tmp_path):
         assert im.n_frames == n == 20 and im.size == (96, 64)
 
 
+def test_a_caption_function_writes_its_text_on_each_frame(tmp_path):
+    rec = synthetic_recording(seconds=1.0, fps=30)
+    asked = []
+
+    def caption(t):
+        asked.append(t)
+        return f"command {len(asked)}" if t >= 0.5 else ""
+
+    kwargs = dict(fps=4, size=(160, 90), progress=False)
+    assert export_video(rec, tmp_path / "c.gif", caption=caption, **kwargs) == 4
+    assert asked == pytest.approx(list(frame_times(rec, 4)))
+
+    def still(start, caption):
+        path = tmp_path / f"{start}-{bool(caption)}.png"
+        export_video(rec, path, start=start, size=(160, 90), caption=caption)
+        with Image.open(path) as im:
+            return np.asarray(im.convert("RGB"))
+
+    # text only where the function returned some
+    assert np.array_equal(still(0.25, caption), still(0.25, False))
+    assert not np.array_equal(still(0.75, caption), still(0.75, False))
+
+
 def test_png_and_recordings_from_paths_and_recorders(tmp_path):
     rec = synthetic_recording(seconds=1.0)
     saved = rec.save(tmp_path / "r.npz")

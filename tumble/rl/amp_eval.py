@@ -22,7 +22,8 @@ def evaluate_amp(policy, config=None, *, episodes=16, seconds=60.0, seed=12345, 
     mean_seconds, speed_error (mean |speed along the command - commanded|, m/s),
     speed_within (fraction of windows within ``speed_tolerance``), heading_within (fraction
     of turns reached within ``turn_seconds``), heading_error (mean angle at
-    ``turn_seconds``, rad), joint_speed (RMS of the actuated joints' rates, rad/s), and with
+    ``turn_seconds``, rad), joint_speed (RMS of the actuated joints' rates, rad/s; the
+    discriminator's joints) and clip_joint_speed (the same over the clips' frames), and with
     ``style`` (an AMPStyle) style_policy and style_clips (mean style reward of the policy's
     transitions and of held-back clip transitions)."""
     from .train import _make_env
@@ -101,6 +102,7 @@ def evaluate_amp(policy, config=None, *, episodes=16, seconds=60.0, seed=12345, 
         "heading_error": float(np.mean(head_err)) if head_err else float("nan"),
         "heading_within": float(np.mean(head_ok)) if head_ok else 0.0,
         "joint_speed": math.sqrt(joint_sq / max(joint_n, 1)),
+        "clip_joint_speed": env.clip_joint_speed(),
         "episodes": N,
     }
     if style is not None:

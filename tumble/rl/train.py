@@ -554,9 +554,23 @@ class Trainer:
 
     def _csv(self, name, row):
         path = self.out_dir / name
+        fields = list(row)
         new = not path.exists()
+        if not new:
+            with open(path, newline="") as f:
+                old = next(csv.reader(f), [])
+            if old != fields:
+                # a run resumed by a tumble that logs other columns: the file is rewritten
+                # with all of them (blank where a row has none), never misaligned
+                fields = old + [k for k in fields if k not in old]
+                with open(path, newline="") as f:
+                    kept = list(csv.DictReader(f))
+                with open(path, "w", newline="") as f:
+                    w = csv.DictWriter(f, fieldnames=fields, restval="")
+                    w.writeheader()
+                    w.writerows(kept)
         with open(path, "a", newline="") as f:
-            w = csv.DictWriter(f, fieldnames=list(row))
+            w = csv.DictWriter(f, fieldnames=fields, restval="")
             if new:
                 w.writeheader()
             w.writerow(row)

@@ -104,7 +104,9 @@ def export_video(recording, path, *, fps=30, size=(640, 360), speed=1.0, start=N
     camera : a :class:`~tumble.viewer.render.Camera`; default frames every moving body
         over the clip, or with ``follow`` ('com' or a body) keeps that in the middle.
     contacts : draw contact points and forces (if recorded).  com : mark the centre of mass.
-    caption : print the time in the corner.  detail : mesh segments around curved shapes.
+    caption : print the time in the corner; a function ``caption(t)`` of the recording's
+        time (s) prints the text it returns instead.  detail : mesh segments around curved
+        shapes.
     quality : 0..10, for MP4 (H.264 CRF from 40 down to 12).
     progress : progress bar (True, False, None: when stderr is a terminal).
     """
@@ -145,7 +147,7 @@ def export_video(recording, path, *, fps=30, size=(640, 360), speed=1.0, start=N
                 pos, quat = rec.pose_at(t)
                 con = rec.contacts(rec.frame_index(t))[:2] if contacts else None
                 img = renderer.render(pos, quat, camera, contacts=con, com=com,
-                                      text=f"t = {t:6.2f} s" if caption else None)
+                                      text=_caption(caption, t))
                 if writer is None:
                     _save_png(img, path)
                 else:
@@ -156,6 +158,13 @@ def export_video(recording, path, *, fps=30, size=(640, 360), speed=1.0, start=N
         if writer is not None:
             writer.close()
     return len(times)
+
+
+def _caption(caption, t):
+    """The text in the corner at recording time ``t``: the time, ``caption(t)``, or none."""
+    if callable(caption):
+        return str(caption(t))
+    return f"t = {t:6.2f} s" if caption else None
 
 
 def _save_png(img, path):

@@ -386,6 +386,19 @@ class AMPEnv(BatchedEnv):
             s.joint_qd[:, j, 1:] = 0.0
 
     # -- reading -------------------------------------------------------------------------
+    def clip_joint_speed(self):
+        """RMS (rad/s) of the discriminator's joints' rates over every frame of the clips
+        (hinges about their axis only, as the discriminator sees them): the figure to
+        hold a policy's joint speeds (``evaluate_amp``'s ``joint_speed``) against."""
+        total, count = 0.0, 0
+        for ref in self.references:
+            qd = np.array(ref.frames.joint_qd[:, self.amp_joints])
+            hinge = np.isin(self.amp_joints, self.amp_hinges)
+            qd[:, hinge, 1:] = 0.0
+            total += float((qd ** 2).sum())
+            count += qd.shape[0] * qd.shape[1]
+        return float(np.sqrt(total / max(count, 1)))
+
     def direction(self, heading):
         """Unit horizontal vectors (n, 3) of headings (n,) rad (see ``heading``)."""
         h = np.asarray(heading, float)
