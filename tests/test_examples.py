@@ -58,3 +58,9 @@ def test_push_and_spin_example_keeps_angular_momentum():
 def test_track_walk_example_tracks_within_0_1_rad():
     out = run_example("examples/track_walk.py")
     assert figure(r"mean joint error ([\d.]+) rad", out) < 0.1
+
+
+def test_steer_example_turns_and_keeps_its_speed():
+    out = run_example("examples/steer.py", "--seconds", "8")
+    assert "0 falls" in out
+    assert figure(r"mean speed error ([\d.]+) m/s over 2 commands", out) < 0.3
