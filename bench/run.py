@@ -61,7 +61,7 @@ ENGINES = {
 # solver takes ~25x longer than CG on the 1000 spheres; tumble's default direct solver is
 # dense, seconds a step with a thousand contacts, where PGS takes tens of milliseconds.
 BEST_VARIANT = {("mujoco", "spheres"): "cg", ("tumble", "pyramid"): "pgs50",
-                ("tumble", "spheres"): "pgs", ("tumble", "ragdoll600pd"): "implicit-pd",
+                ("tumble", "spheres"): "pgs50", ("tumble", "ragdoll600pd"): "implicit-pd",
                 ("tumble", "ragdoll1920pd"): "implicit-pd"}
 # Steps of each scene the stage profile runs (the whole scene for the cheap ones).
 PROFILE_STEPS = {"pyramid": 120, "spheres": 120}
