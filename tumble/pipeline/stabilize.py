@@ -98,9 +98,10 @@ def _project(m, pos, quat, rows, inv_inertia, iterations, tolerance, idx, n, tre
              plan, dv, b, A, work, reg, y, u, fzero, zero):
     """The Gauss-Newton iterations of ``project_joints`` on its work arrays."""
     nb = pos.shape[0]
-    # Gauss-Newton converges quadratically: once the error is a thousandth of the
-    # tolerance, a further iteration would cost a factorisation for nothing visible
-    done = max(1e-3 * tolerance, 1e-12)
+    # Gauss-Newton converges quadratically: once the error is a tenth of the tolerance
+    # (what ERP then corrects), a further iteration would cost a factorisation for
+    # nothing visible
+    done = max(0.1 * tolerance, 1e-12)
     for it in range(iterations):
         # with h = 1 and ERP = 1 each core row's rhs is minus its position error
         build_core_rows(m, pos, quat, rows)

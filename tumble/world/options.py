@@ -108,7 +108,7 @@ class Options:
         update without touching velocities (post-stabilisation; 0 to rely on ERP alone).
     projection_tolerance : largest row error (m, rad) past which projection runs; below it
         ERP alone pulls joints together, which dissipates less. Once running, projection
-        stops when the error is below a thousandth of this (or after ``projection``
+        stops when the error is below a tenth of this (or after ``projection``
         iterations).
     contact_erp, contact_cfm : ERP and CFM of contact rows (penetration pushed out per step,
         softness).
