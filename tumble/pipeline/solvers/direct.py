@@ -63,7 +63,7 @@ def _cholesky(a, n, work, redundant, drop):
             if i != k:
                 work[i, k] = s / work[k, k]
             elif drop and abs(s) <= redundant * a[i, i]:
-                for t in range(i):
+                for t in range(first, i):          # (before first: zero already)
                     work[i, t] = 0.0
                 work[i, i] = np.inf
                 dropped += 1
