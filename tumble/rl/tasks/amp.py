@@ -390,10 +390,10 @@ class AMPEnv(BatchedEnv):
         """RMS (rad/s) of the discriminator's joints' rates over every frame of the clips
         (hinges about their axis only, as the discriminator sees them): the figure to
         hold a policy's joint speeds (``evaluate_amp``'s ``joint_speed``) against."""
+        hinge = np.isin(self.amp_joints, self.amp_hinges)
         total, count = 0.0, 0
         for ref in self.references:
             qd = np.array(ref.frames.joint_qd[:, self.amp_joints])
-            hinge = np.isin(self.amp_joints, self.amp_hinges)
             qd[:, hinge, 1:] = 0.0
             total += float((qd ** 2).sum())
             count += qd.shape[0] * qd.shape[1]
