@@ -105,7 +105,7 @@ class AMPEnv(BatchedEnv):
     """
 
     def __init__(self, num_envs=1, clips=DEFAULT_CLIPS, *, ragdoll=None, control_hz=30,
-                 physics_hz=60, contact="pgs", episode_seconds=20.0, action_scale=1.0,
+                 physics_hz=60, contact="lcp", episode_seconds=20.0, action_scale=1.0,
                  speed_range=(0.4, 2.2), command_seconds=(2.0, 5.0), max_turn=math.pi,
                  task_scale=1.0, task_reward="vector", end_effectors=None, contact_bodies=None,
                  min_root_height=0.3, holdout=0.1, amp_exclude=("toe",), turn_rate=0.8,
