@@ -7,7 +7,7 @@ from tumble.apps import benchmarks
 from tumble.pipeline.solvers.common import make_rows_nb
 from tumble.pipeline.solvers.direct import (assemble, cholesky_apply, cholesky_factor,
                                             cholesky_factor_dropping)
-from tumble.pipeline.solvers.guess import _REDUNDANT, _dropped_rows_hold
+from tumble.pipeline.solvers.guess import REDUNDANT, _dropped_rows_hold
 
 FAST = settings(max_examples=60, deadline=None)
 
@@ -48,7 +48,7 @@ def test_dropping_solves_a_consistent_semidefinite_system(seed, n, rank):
     rng = np.random.default_rng(seed + 1)
     b = A @ rng.normal(size=n)                      # consistent: in A's range
     fac = np.zeros((n, n))
-    dropped = cholesky_factor_dropping(A, n, fac, _REDUNDANT)
+    dropped = cholesky_factor_dropping(A, n, fac, REDUNDANT)
     assert dropped == n - np.linalg.matrix_rank(rows, tol=1e-9)
     x = np.zeros(n)
     cholesky_apply(fac, b, n, x)
@@ -65,7 +65,7 @@ def test_an_inconsistent_dropped_row_is_caught(seed, n, rank):
     A, _ = semidefinite(seed, n, rank)
     rng = np.random.default_rng(seed + 1)
     fac = np.zeros((n, n))
-    assert cholesky_factor_dropping(A, n, fac, _REDUNDANT) >= 1
+    assert cholesky_factor_dropping(A, n, fac, REDUNDANT) >= 1
     b = A @ rng.normal(size=n)
     b[np.flatnonzero(np.isinf(np.diag(fac)))[0]] += 1.0           # off A's range
     x = np.zeros(n)
@@ -80,7 +80,7 @@ def test_dropping_equals_cholesky_on_a_definite_matrix(seed, n):
     M = rng.normal(size=(n, n))
     A = M @ M.T + n * np.eye(n)
     fa, fb = np.zeros((n, n)), np.zeros((n, n))
-    assert cholesky_factor(A, n, fa) and cholesky_factor_dropping(A, n, fb, _REDUNDANT) == 0
+    assert cholesky_factor(A, n, fa) and cholesky_factor_dropping(A, n, fb, REDUNDANT) == 0
     assert np.array_equal(np.tril(fa), np.tril(fb))
 
 
@@ -160,7 +160,7 @@ def test_assembly_by_runs_of_rows_equals_J_Minv_JT(seed, runs):
 
 def test_an_indefinite_matrix_is_refused():
     A = np.array([[1.0, 2.0], [2.0, 1.0]])
-    assert cholesky_factor_dropping(A, 2, np.zeros((2, 2)), _REDUNDANT) == -1
+    assert cholesky_factor_dropping(A, 2, np.zeros((2, 2)), REDUNDANT) == -1
 
 
 def test_the_ten_box_stack_stays_exact_with_dependent_rows_dropped():

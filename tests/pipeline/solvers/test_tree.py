@@ -277,7 +277,10 @@ def test_limited_hinge_chain_tree_matches_dense():
 
 
 def test_ragdoll_mixed_lcp_tree_matches_dense():
-    """The benchmark ragdoll on the ground: Schur complement over its joint tree."""
+    """The benchmark ragdoll on the ground: Schur complement over its joint tree. The two
+    paths reach the LCP's answer by different tries (the tree's guess and sweeps on the
+    rows' columns, the dense path's corrections and sweeps on ``S``), so the impulses of
+    redundant corners may differ; the velocities may not."""
     world = tumble.World(benchmarks.ragdoll(600))
     seen = 0
     for _ in range(6):
@@ -290,9 +293,15 @@ def test_ragdoll_mixed_lcp_tree_matches_dense():
             out.append((imp, v, w, status))
         assert out[0][3] == out[1][3]
         if out[0][3] == 0:
-            assert_same(*out)
+            assert_same_velocities(*out)
             seen += nrow > world.model.nrow
     assert seen > 0                                      # contacts were present
+
+
+def assert_same_velocities(tree, dense, tol=1e-9):
+    """Two answers of one mixed LCP that may split redundant impulses differently."""
+    for a, b in zip(tree[1:3], dense[1:3]):
+        assert np.abs(a - b).max() <= tol * max(1.0, np.abs(b).max())
 
 
 def boxes_on_a_free_box(slide=0.0):
@@ -332,9 +341,11 @@ def test_tree_on_a_free_box_matches_dense():
 
 
 def test_the_tree_path_without_the_guess_matches_dense():
-    """``solve_mlcp(guess=False)`` (what a step runs after its fast path's guess failed)
-    skips only the guess: the complement and Lemke on the tree give the dense path's
-    answer on the jointed boxes riding a free box."""
+    """``solve_mlcp(guess=False)`` (what a step runs after its fast path's guess and sweeps
+    failed) goes from the complement on the tree straight to Lemke; the dense path tries
+    the guess and the sweeps first. On the jointed boxes riding a free box both solve,
+    with the same velocities (the impulses of redundant corners may differ: each is a
+    solution of the LCP)."""
     world = boxes_on_a_free_box()
     for cache, _ in steps_with_contacts(world, 60, 12):
         rows, nrow, im, ii, vel, angvel, imp0 = rows_with_gravity(world)
@@ -345,7 +356,7 @@ def test_the_tree_path_without_the_guess_matches_dense():
                       else mixed_lcp(rows, nrow, im, ii, v, w, imp, 0, False))
             out.append((imp, v, w, status))
         assert out[0][3] == out[1][3] == 0
-        assert_same(*out)
+        assert_same_velocities(*out)
 
 
 def fast_and_full(world, cache, fast):
@@ -429,7 +440,7 @@ def fast_against_lemke(world, steps, every):
     """Step ``world``; every ``every`` steps solve its rows (velocities with this step's
     gravity, as the step solves them) by the fast path and by Lemke on the dense complement
     (``mixed_lcp`` without the tree, which never guesses a sliding contact). Where the fast
-    path solves, its impulses and velocities must be Lemke's. Returns (solved, tried)."""
+    path solves, its velocities must be the dense path's. Returns (solved, tried)."""
     solved = tried = 0
     for cache, fast in steps_with_contacts(world, steps, every):
         rows, nrow, im, ii, vel, angvel, imp0 = rows_with_gravity(world)
@@ -441,15 +452,16 @@ def fast_against_lemke(world, steps, every):
         tried += 1
         if status == FAST_SOLVED:
             solved += 1
-            # (the tree's complement and the dense one differ in round-off)
-            assert_same((*got, 0), (*want, 0), tol=1e-7)
+            # (the tree's complement and the dense one differ in round-off; redundant
+            # corners' impulses may be split differently by the two paths' tries)
+            assert_same_velocities((*got, 0), (*want, 0), tol=1e-7)
     return solved, tried
 
 
 def test_fast_path_solves_sliding_contacts_as_lemke_does():
     """Balls sliding on the ground (friction at its pyramid's bound, slipping at rate
     lambda), and jointed boxes riding a sliding box: last step's sliding state, kept at
-    the bound, solves most steps on the fast path, with Lemke's impulses and velocities."""
+    the bound, solves most steps on the fast path, with the dense path's velocities."""
     solved, tried = fast_against_lemke(sliding_chain(2.0, mu=0.1), 20, 2)
     assert tried == 10 and solved >= 8                # the first call only plans
     solved, tried = fast_against_lemke(boxes_on_a_free_box(slide=0.5), 60, 2)
@@ -649,7 +661,7 @@ def test_guessed_active_set_solves_the_lcp(seed, ncontact, nbox, nbody, guess):
     last = {"right": p_ref, "perturbed": p_ref * rng.uniform(0.5, 1.5, n),
             "zero": np.zeros(n), "random": rng.normal(size=n)}[guess]
     p = np.zeros(n)
-    assert ML._lcp_on_schur(rows, part, S, c, last, 0, p) == 0
+    assert ML._lcp_on_schur(rows, part, S, c, last, 0, p, np.bool_(True)) == 0
     assert pyramid_residual(rows, n, S, c, p) <= 1e-8 * scale
     if guess == "right":
         state = np.zeros(n, np.int64)

@@ -49,7 +49,7 @@ SLIDE_UNKNOWNS = 64
 _GUESS_ROUNDS = 16
 # A pivot of the guess's Cholesky factor below this times its diagonal entry marks
 # redundant rows (four coplanar contacts of a box): they are dropped (impulse 0).
-_REDUNDANT = 1e-10
+REDUNDANT = 1e-10
 
 # states of a row in a guessed active set; SLIDE_*: a friction row at its group's bound,
 # carrying impulse of that sign
@@ -117,6 +117,8 @@ GuessScratch = namedtuple("GuessScratch", [
     "cvec",     # (k,) their c
     "pt",       # (k,) their impulses
     "held",     # HeldScratch for k rows
+    "links",    # (2k,) int64 the sweeps' friction partners and normals (schur_pgs.py)
+    "w",        # (k,) the sweeps' residuals
 ])
 
 
@@ -129,7 +131,8 @@ def make_guess_scratch(nheld, nbody, plan):
     return GuessScratch(np.empty(k, np.int64), np.empty(nbody, np.bool_), np.empty((k, 12)),
                         RowColumns(np.empty((k, nz)), np.empty((k, nnode), np.bool_),
                                    np.empty((k, nnode), np.int64), np.empty(k, np.int64)),
-                        np.empty((k, k)), np.empty(k), np.empty(k), make_held_scratch(k))
+                        np.empty((k, k)), np.empty(k), np.empty(k), make_held_scratch(k),
+                        np.empty(2 * k, np.int64), np.empty(k))
 
 
 @noalloc
@@ -230,7 +233,7 @@ def solve_held(rows, part, sub, ns, state, S, cvec, p, hs):
         return _solve_sliding(rows, part, sub, ns, state, nf, hs, p)
     # a face's fourth contact depends on the other three: its row is dropped (impulse 0,
     # as in a basic solution of Lemke's) if the equations stay consistent without it
-    dropped = cholesky_factor_dropping(mat, nf, fac, _REDUNDANT)
+    dropped = cholesky_factor_dropping(mat, nf, fac, REDUNDANT)
     if dropped < 0:
         return False, 0.0
     cholesky_apply(fac, rhs, nf, x)
@@ -271,7 +274,7 @@ def _solve_sliding(rows, part, sub, ns, state, nf, hs, p):
     ``hs.rhs`` set for the ``nf`` rows ``hs.free``) and one ``lambda`` per sliding group;
     a sliding row's equation gains ``+ s lambda`` (its velocity is ``-s lambda``: it slips
     against its impulse), and each group adds ``sum s p - mu p_n = 0``. Gaussian
-    elimination with partial pivoting; (False, 0) when a pivot is below ``_REDUNDANT``
+    elimination with partial pivoting; (False, 0) when a pivot is below ``REDUNDANT``
     of its column's scale (dependent rows) or a group's normal is not held."""
     idx, oth = part.idx, part.oth
     free, aug, gkey, gnorm, lam = hs.free, hs.aug, hs.gkey, hs.gnorm, hs.lam
@@ -326,7 +329,7 @@ def _solve_sliding(rows, part, sub, ns, state, nf, hs, p):
         for e in range(col + 1, dim):
             if abs(aug[e, col]) > abs(aug[best, col]):
                 best = e
-        if abs(aug[best, col]) <= _REDUNDANT * scale:
+        if abs(aug[best, col]) <= REDUNDANT * scale:
             return False, 0.0
         if best != col:
             for c in range(dim + 1):
@@ -461,51 +464,13 @@ def guess_on_tree(rows, part, plan, bodies, tw, ns, gs):
 
     One pass of the tree does it all: ``[0; g]`` is forward substituted, each held row's
     column ``L^-1 J^T`` is made along its path (``tree_row_columns``) and gives its row of
-    ``S`` and its ``c``, and once the impulses are known their columns are added and one
-    back substitution gives the velocities. Bodies outside the tree answer with their
-    own inverse mass."""
+    ``S`` and its ``c`` (``columns_complement``), and once the impulses are known their
+    columns are added and one back substitution gives the velocities
+    (``columns_velocities``)."""
     idx, kind, oth, nn = part.idx, part.kind, part.oth, part.nn
-    inv_mass, vel, angvel = bodies.inv_mass, bodies.vel, bodies.angvel
     sub, state, b, p, vn = tw.sub, tw.state, tw.b, tw.p, tw.vn
-    nbody = vel.shape[0]
-    rsel, alone, dva, cols, S, cvec = gs.rsel, gs.alone, gs.dva, gs.cols, gs.S, gs.cvec
-    H, member = cols.H, cols.member
-    for body in range(nbody):
-        alone[body] = False
-    for t in range(ns):
-        for k in range(12):
-            dva[t, k] = 0.0
-        for k in range(member.shape[1]):
-            member[t, k] = False
-    for t in range(ns):
-        r = idx[oth[sub[t]]]
-        rsel[t] = r
-        for side in range(2):
-            body = rows.body_b[r] if side else rows.body_a[r]
-            if body >= 0 and inv_mass[body] > 0.0 and plan.dim[body] != 6:
-                alone[body] = True
-                minv_jt(rows, r, inv_mass, bodies.inv_inertia, dva[t])
-    tree_load(plan, nbody, vn, np.bool_(False), tw.g)
-    tree_forward(plan, nbody)
-    tree_row_columns(plan, nbody, rows, rsel, ns, cols)
-    for t in range(ns):
-        ra = rsel[t]
-        cvec[t] = b[oth[sub[t]]] - tree_column_dot(plan, nbody, cols, t, plan.z, member[t],
-                                                   np.bool_(False))
-        for tb in range(t + 1):
-            rb = rsel[tb]
-            acc = tree_column_dot(plan, nbody, cols, t, H[tb], member[tb], np.bool_(True))
-            for sb in range(2):
-                body = rows.body_b[rb] if sb else rows.body_a[rb]
-                if body < 0 or not alone[body]:
-                    continue
-                for sa in range(2):
-                    if (rows.body_b[ra] if sa else rows.body_a[ra]) == body:
-                        for k in range(6):
-                            acc += rows.J[rb, 6 * sb + k] * dva[t, 6 * sa + k]
-            S[t, tb] = acc
-            S[tb, t] = acc
-        S[t, t] += rows.cfm[ra]
+    S, cvec = gs.S, gs.cvec
+    columns_complement(rows, part, plan, bodies, tw, ns, gs)
     ok, pmax = solve_held(rows, part, sub, ns, state, S, cvec, p, gs.held)
     if not ok:
         return False
@@ -523,17 +488,7 @@ def guess_on_tree(rows, part, plan, bodies, tw, ns, gs):
     for t in range(ns):
         if _sliding(state[sub[t]]) and lam[t] < -tol_w:
             return False                        # it would slip along its impulse
-    pt = gs.pt
-    for t in range(ns):
-        pt[t] = p[sub[t]]
-    tree_add_columns(plan, cols, ns, pt)
-    tree_backward(plan, nbody)
-    tree_unload(plan, nbody, vn, tw.y)
-    for body in range(nbody):
-        for k in range(3):
-            vn[body, k] += vel[body, k]
-            vn[body, 3 + k] += angvel[body, k]
-    push(rows, part, sub, ns, p, alone, np.bool_(True), dva, vn)   # the others
+    columns_velocities(rows, part, plan, bodies, tw, ns, gs)
     for a in range(nn):
         st = state[a]
         if st == EQUAL or _sliding(st):         # (held: their velocities as solved)
@@ -555,6 +510,77 @@ def guess_on_tree(rows, part, plan, bodies, tw, ns, gs):
                     return False
     _clamp_round_off(part, p)
     return True
+
+
+@noalloc
+def columns_complement(rows, part, plan, bodies, tw, ns, gs):
+    """``gs.S`` (ns, ns) and ``gs.cvec`` (ns,) of the rows ``oth[tw.sub[:ns]]`` from their
+    tree columns (``guess_on_tree``): ``[0; tw.g]`` forward substituted, each row's column
+    ``L^-1 J^T`` made along its path; bodies outside the tree answer with their own
+    inverse mass (``gs.dva``)."""
+    idx, oth = part.idx, part.oth
+    inv_mass = bodies.inv_mass
+    sub, b = tw.sub, tw.b
+    nbody = bodies.vel.shape[0]
+    rsel, alone, dva, cols, S, cvec = gs.rsel, gs.alone, gs.dva, gs.cols, gs.S, gs.cvec
+    H, member = cols.H, cols.member
+    for body in range(nbody):
+        alone[body] = False
+    for t in range(ns):
+        for k in range(12):
+            dva[t, k] = 0.0
+        for k in range(member.shape[1]):
+            member[t, k] = False
+    for t in range(ns):
+        r = idx[oth[sub[t]]]
+        rsel[t] = r
+        for side in range(2):
+            body = rows.body_b[r] if side else rows.body_a[r]
+            if body >= 0 and inv_mass[body] > 0.0 and plan.dim[body] != 6:
+                alone[body] = True
+                minv_jt(rows, r, inv_mass, bodies.inv_inertia, dva[t])
+    tree_load(plan, nbody, tw.vn, np.bool_(False), tw.g)
+    tree_forward(plan, nbody)
+    tree_row_columns(plan, nbody, rows, rsel, ns, cols)
+    for t in range(ns):
+        ra = rsel[t]
+        cvec[t] = b[oth[sub[t]]] - tree_column_dot(plan, nbody, cols, t, plan.z, member[t],
+                                                   np.bool_(False))
+        for tb in range(t + 1):
+            rb = rsel[tb]
+            acc = tree_column_dot(plan, nbody, cols, t, H[tb], member[tb], np.bool_(True))
+            for sb in range(2):
+                body = rows.body_b[rb] if sb else rows.body_a[rb]
+                if body < 0 or not alone[body]:
+                    continue
+                for sa in range(2):
+                    if (rows.body_b[ra] if sa else rows.body_a[ra]) == body:
+                        for k in range(6):
+                            acc += rows.J[rb, 6 * sb + k] * dva[t, 6 * sa + k]
+            S[t, tb] = acc
+            S[tb, t] = acc
+        S[t, t] += rows.cfm[ra]
+
+
+@noalloc
+def columns_velocities(rows, part, plan, bodies, tw, ns, gs):
+    """The new velocities ``tw.vn`` and the bilateral rows' ``tw.y`` once the rows
+    ``oth[tw.sub[:ns]]`` push with ``tw.p`` (after ``columns_complement``): their columns
+    added, one back substitution, the bodies outside the tree by their own inverse mass."""
+    sub, p, vn = tw.sub, tw.p, tw.vn
+    vel, angvel = bodies.vel, bodies.angvel
+    nbody = vel.shape[0]
+    pt = gs.pt
+    for t in range(ns):
+        pt[t] = p[sub[t]]
+    tree_add_columns(plan, gs.cols, ns, pt)
+    tree_backward(plan, nbody)
+    tree_unload(plan, nbody, vn, tw.y)
+    for body in range(nbody):
+        for k in range(3):
+            vn[body, k] += vel[body, k]
+            vn[body, 3 + k] += angvel[body, k]
+    push(rows, part, sub, ns, p, gs.alone, np.bool_(True), gs.dva, vn)   # the others
 
 
 @noalloc

@@ -12,14 +12,17 @@ When the bilateral rows form a tree (a character's joints) they are factorised i
 time (``tree.py``) and the plan of that factorisation is kept across steps
 (``PlanCache``). Before any pivoting, last step's contact state is tried as it stands on
 the tree (``guess.guess_on_tree``), which is the LCP's answer whenever every other row
-passes the complementarity checks -- what a resting or walking character mostly meets;
-``guess_on_tree_fast`` does that without allocating. Otherwise ``S`` for every row comes
-from the constrained inverse mass of the few bodies they touch (``schur.complement``), a
-few primal-dual corrections handle contacts that come or go
-(``guess.guessed_active_set``). Sliding contacts are held at their pyramid's bound, and a
-dependent row of redundant contacts (a box face's fourth) is dropped from the held system
-(``direct.cholesky_factor_dropping``) when the others satisfy it; anything else goes to
-Lemke.
+passes the complementarity checks -- what a resting character mostly meets. When it is
+not (a walking foot that starts or stops sliding, a corner that lands or lifts), up to
+``schur_pgs.SWEEP_ROWS`` rows get ``S`` from their tree columns and the state that sweeps
+of Gauss-Seidel on it find, solved exactly and checked (``schur_pgs.py``);
+``guess_on_tree_fast`` does all that without allocating. Otherwise ``S`` for every row
+comes from the constrained inverse mass of the few bodies they touch
+(``schur.complement``), a few primal-dual corrections handle contacts that come or go
+(``guess.guessed_active_set``), then the sweeps. Sliding contacts are held at their
+pyramid's bound, and a dependent row of redundant contacts (a box face's fourth) is
+dropped from the held system (``direct.cholesky_factor_dropping``) when the others
+satisfy it; anything else goes to Lemke.
 """
 from collections import namedtuple
 
@@ -35,6 +38,7 @@ from .lemke import LEMKE_BAD_INPUT, LEMKE_SOLVED
 from .partition import KIND_FRICTION, load_slot, partition_rows
 from .pyramid import pyramid_lcp
 from .schur import complement, respond, schur_dense
+from .schur_pgs import SWEEP_ROWS, schur_pgs_exact, sweep_on_tree
 from .tree import cached_tree_plan, make_plan_cache, plan_kept, tree_factor, tree_solve
 
 
@@ -161,11 +165,14 @@ def _right_hand_side(rows, part, bodies, tw):
 @noalloc
 def _guess_and_finish(rows, part, plan, bodies, impulse, tw, gs):
     """The tree path's first try, shared by ``_mlcp_tree`` and ``guess_on_tree_fast``
-    (after ``_right_hand_side``): last step's contact state (``guess_states``) solved and
-    checked (``guess_on_tree``, scratch ``gs``) and, when it solves the LCP, applied
-    (``_finish``): _GUESS_SOLVED. Otherwise (_GUESS_FAILED, or _GUESS_NO_ROOM when ``gs``
-    has no room for the held rows) the bodies' velocities and ``impulse`` are left as
-    they came. ``tw`` (``guess.tree_work``) may hold anything on entry but ``b``, ``g``."""
+    (after ``_right_hand_side``), and when it solves the LCP, applied (``_finish``):
+    _GUESS_SOLVED. Last step's contact state (``guess_states``) on the rows it holds
+    alone (``guess_on_tree``); if that fails and there are at most ``SWEEP_ROWS`` LCP
+    rows, ``S`` of them all from their tree columns and the state that sweeps of
+    Gauss-Seidel find (``sweep_on_tree``). Otherwise (_GUESS_FAILED, or _GUESS_NO_ROOM
+    when ``gs`` (``make_guess_scratch``) has no room for the held rows) the bodies'
+    velocities and ``impulse`` are left as they came. ``tw`` (``guess.tree_work``) may
+    hold anything on entry but ``b``, ``g``."""
     idx, kind, oth, nn = part.idx, part.kind, part.oth, part.nn
     load, state, sub = tw.load, tw.state, tw.sub
     for a in range(nn):                     # only the slots guess_states will sum into
@@ -174,8 +181,7 @@ def _guess_and_finish(rows, part, plan, bodies, impulse, tw, gs):
     for a in range(nn):
         state[a] = 0
         tw.p[a] = 0.0
-    if not guess_states(rows, part, impulse, state, load, np.bool_(True)):
-        return _GUESS_FAILED
+    guess_states(rows, part, impulse, state, load, np.bool_(True))    # (always True so)
     ns = np.int64(0)
     for a in range(nn):
         if state[a] != ZERO:
@@ -183,7 +189,8 @@ def _guess_and_finish(rows, part, plan, bodies, impulse, tw, gs):
             ns += 1
     if ns > gs.rsel.shape[0]:
         return _GUESS_NO_ROOM
-    if not guess_on_tree(rows, part, plan, bodies, tw, ns, gs):
+    if not guess_on_tree(rows, part, plan, bodies, tw, ns, gs) and \
+            not sweep_on_tree(rows, part, plan, bodies, tw, gs, impulse):
         return _GUESS_FAILED
     _finish(rows, part, tw.y, tw.p, tw.vn, bodies, impulse)
     return _GUESS_SOLVED
@@ -218,7 +225,9 @@ def _mlcp_tree(rows, part, plan, bodies, impulse, max_pivots, guess):
     for a in range(nn):
         sub[a] = a
     cpl = complement(rows, part, sub, nn, tw.b, plan, bodies, u0)
-    status = _lcp_on_schur(rows, part, cpl.S, cpl.c, impulse, max_pivots, tw.p)
+    # (up to SWEEP_ROWS rows, last step's state and the sweeps were tried on the tree)
+    status = _lcp_on_schur(rows, part, cpl.S, cpl.c, impulse, max_pivots, tw.p,
+                           nn > SWEEP_ROWS)
     if status != LEMKE_SOLVED:
         return status
     respond(rows, part, sub, nn, tw.p, plan, cpl, bodies, u0, tw.vn, tw.y)
@@ -246,18 +255,25 @@ def _finish(rows, part, y, p_n, vn, bodies, impulse):
 
 
 @njit(cache=True)
-def _lcp_on_schur(rows, part, S, cvec, impulse, max_pivots, p_n):
+def _lcp_on_schur(rows, part, S, cvec, impulse, max_pivots, p_n, first_tries):
     """Impulses ``p_n`` (nn,) of the non-bilateral rows: ``S p_N - c`` complementary to the
-    rows' bounds. Tries last step's contact state first (``guessed_active_set``), then
-    Lemke on the friction-pyramid LCP. Returns Lemke's status."""
+    rows' bounds. With ``first_tries``: last step's contact state (``guessed_active_set``)
+    and then the state that sweeps of Gauss-Seidel find (``schur_pgs_exact``); then Lemke
+    on the friction-pyramid LCP. Returns Lemke's status."""
     nn = part.nn
     state = np.zeros(nn, np.int64)
-    if guess_states(rows, part, impulse, state, np.zeros(2 * impulse.shape[0])):
-        if guessed_active_set(rows, part, S, cvec, state, p_n, np.arange(nn),
-                              make_held_scratch(nn), np.empty(nn)):
+    guessed = guess_states(rows, part, impulse, state, np.zeros(2 * impulse.shape[0]))
+    if first_tries:
+        every = np.arange(nn)
+        hs = make_held_scratch(nn)
+        w = np.empty(nn)
+        if guessed and guessed_active_set(rows, part, S, cvec, state, p_n, every, hs, w):
             return LEMKE_SOLVED
-        return pyramid_lcp(rows, part, S, cvec, impulse, max_pivots, np.bool_(False), p_n)
-    return pyramid_lcp(rows, part, S, cvec, impulse, max_pivots, np.bool_(True), p_n)
+        links = np.empty(2 * nn, np.int64)
+        if schur_pgs_exact(rows, part, S, cvec, impulse, p_n, state, links[:nn], links[nn:],
+                           every, hs, w):
+            return LEMKE_SOLVED
+    return pyramid_lcp(rows, part, S, cvec, impulse, max_pivots, not guessed, p_n)
 
 
 @njit(cache=True)
@@ -279,7 +295,7 @@ def _mlcp_dense(rows, part, bodies, impulse, max_pivots):
         if not schur_dense(A, b, part, X, S, cvec):
             return LEMKE_BAD_INPUT
     p_n = np.zeros(nn)
-    status = _lcp_on_schur(rows, part, S, cvec, impulse, max_pivots, p_n)
+    status = _lcp_on_schur(rows, part, S, cvec, impulse, max_pivots, p_n, np.bool_(True))
     if status != LEMKE_SOLVED:
         return status
     p = np.zeros(n)
