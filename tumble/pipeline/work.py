@@ -77,13 +77,19 @@ def _row_capacity(njrow, nservoed, nper, cap, o):
 def work_fits(work, m, s, c, con, o):
     """Whether ``work`` (make_step_work) still fits the state, controls, contacts and
     options."""
-    njrow = s.row_impulse.shape[1]
-    cap = con.depth.shape[1]
+    return fits_world(work, m, s.row_impulse.shape[1], con.depth.shape[1], c.body_servo, o)
+
+
+@noalloc
+def fits_world(work, m, njrow, cap, body_servo, o):
+    """``work_fits`` from what it reads: the joint rows per world ``njrow``, the contact
+    capacity ``cap`` and the world's servo gains ``body_servo`` (1, nbody, 4), so a batch
+    checks each world's work without views of its every array (``parallel.py``)."""
     # the bodies with a servo, in order, must be those the rows were laid out for
     k = 0
     ns = work.servoed.shape[0]
-    for b in range(c.body_servo.shape[1]):
-        if servo_on(c.body_servo, b):
+    for b in range(body_servo.shape[1]):
+        if servo_on(body_servo, b):
             if k >= ns or work.servoed[k] != b:
                 return False
             k += 1
