@@ -401,29 +401,7 @@ def guessed_active_set(rows, part, S, cvec, state, p, every, hs, w):
                     s += S[a, c] * p[c]
             w[a] = s
         tol_w, tol_p = slack(GUESS_TOL, cmax, smax, pmax)
-        changed = False
-        for a in range(nn):
-            i = oth[a]
-            r = idx[i]
-            k = kind[i]
-            st = state[a]
-            if k == KIND_UNILATERAL:
-                if st == EQUAL and p[a] < -tol_p:
-                    state[a] = ZERO
-                    changed = True
-                elif st == ZERO and w[a] < -tol_w:
-                    state[a] = EQUAL
-                    changed = True
-            elif k == KIND_BOX:
-                if st == EQUAL and p[a] > rows.hi[r] + tol_p:
-                    state[a] = AT_HI
-                    changed = True
-                elif st == EQUAL and p[a] < rows.lo[r] - tol_p:
-                    state[a] = AT_LO
-                    changed = True
-                elif (st == AT_HI and w[a] > tol_w) or (st == AT_LO and w[a] < -tol_w):
-                    state[a] = EQUAL
-                    changed = True
+        changed = correct_bounded_rows(rows, part, state, p, w, tol_w, tol_p)
         # friction: rows of a released normal are zero; a zero row of a holding normal
         # must not slip (else it holds too); a group outside its pyramid is sliding,
         # which this method does not do
@@ -449,6 +427,39 @@ def guessed_active_set(rows, part, S, cvec, state, p, every, hs, w):
             _clamp_round_off(part, p)
             return True
     return False
+
+
+@noalloc
+def correct_bounded_rows(rows, part, state, p, w, tol_w, tol_p):
+    """The primal-dual correction of the normals, limits and box rows of a held solve's
+    ``p`` and ``w = S p - c`` (nn,): a normal pulling lets go, a zero one moving into its
+    surface holds, a box row past a bound keeps it, one at a bound pushed back inside
+    leaves it. Returns whether a state changed."""
+    idx, kind, oth = part.idx, part.kind, part.oth
+    changed = False
+    for a in range(part.nn):
+        i = oth[a]
+        r = idx[i]
+        k = kind[i]
+        st = state[a]
+        if k == KIND_UNILATERAL:
+            if st == EQUAL and p[a] < -tol_p:
+                state[a] = ZERO
+                changed = True
+            elif st == ZERO and w[a] < -tol_w:
+                state[a] = EQUAL
+                changed = True
+        elif k == KIND_BOX:
+            if st == EQUAL and p[a] > rows.hi[r] + tol_p:
+                state[a] = AT_HI
+                changed = True
+            elif st == EQUAL and p[a] < rows.lo[r] - tol_p:
+                state[a] = AT_LO
+                changed = True
+            elif (st == AT_HI and w[a] > tol_w) or (st == AT_LO and w[a] < -tol_w):
+                state[a] = EQUAL
+                changed = True
+    return changed
 
 
 @noalloc

@@ -27,6 +27,20 @@ def slack(tol, cmax, smax, pmax):
     return tol_w, tol_w / smax
 
 
+@noalloc
+def problem_scale(S, cvec, p, nn):
+    """(largest |c|, diagonal of ``S`` and |p|) of an LCP of ``nn`` rows: the scale its
+    checks' slack is relative to (``slack``)."""
+    cmax = 1e-300
+    smax = 1e-300
+    pmax = 0.0
+    for a in range(nn):
+        cmax = max(cmax, abs(cvec[a]))
+        smax = max(smax, abs(S[a, a]))
+        pmax = max(pmax, abs(p[a]))
+    return cmax, smax, pmax
+
+
 @njit(cache=True)
 def pyramid_lcp(rows, part, S, cvec, impulse, max_pivots, warm, p_n):
     """Lemke on the friction-pyramid LCP of ``S``, ``c`` (module docstring); with ``warm``
@@ -120,13 +134,7 @@ def complementary(rows, part, S, cvec, p, tol, w):
     bounds, each friction group stays in its pyramid and slips only on its edge, against
     the direction of its impulse. ``w`` (nn,) is scratch."""
     idx, kind, oth, nn = part.idx, part.kind, part.oth, part.nn
-    cmax = 1e-300
-    smax = 1e-300
-    pmax = 0.0
-    for a in range(nn):
-        cmax = max(cmax, abs(cvec[a]))
-        smax = max(smax, abs(S[a, a]))
-        pmax = max(pmax, abs(p[a]))
+    cmax, smax, pmax = problem_scale(S, cvec, p, nn)
     for a in range(nn):
         acc = -cvec[a]
         for c in range(nn):

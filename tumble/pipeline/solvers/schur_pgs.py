@@ -22,10 +22,11 @@ from numba import njit
 from ..._jit import noalloc
 from .direct import cholesky_factor_dropping
 from .guess import (AT_HI, AT_LO, EQUAL, GUESS_TOL, REDUNDANT, SLIDE_NEG, SLIDE_POS, ZERO,
-                    columns_complement, columns_velocities, solve_held)
+                    columns_complement, columns_velocities, correct_bounded_rows,
+                    solve_held)
 from .lemke import VERIFY_TOL
 from .partition import KIND_BOX, KIND_FRICTION, KIND_UNILATERAL, normal_of, same_group
-from .pyramid import complementary, slack
+from .pyramid import complementary, problem_scale, slack
 
 # The state is read after this many sweeps in all (0: last step's impulses as they are),
 # until one solves the LCP; the sweeps stop early once no impulse moves by more than
@@ -199,37 +200,11 @@ def _corrected(rows, part, S, cvec, p, lam, state, partner, normal, w):
     runs along its impulse sticks, a sliding row whose impulse changed sign lets go and a
     zero row slipping faster than its group slides. Returns whether a state changed."""
     idx, kind, oth, nn = part.idx, part.kind, part.oth, part.nn
-    cmax = 1e-300
-    smax = 1e-300
-    pmax = 0.0
     for a in range(nn):
-        cmax = max(cmax, abs(cvec[a]))
-        smax = max(smax, abs(S[a, a]))
-        pmax = max(pmax, abs(p[a]))
         w[a] = _row_residual(S, cvec, p, a, nn)
+    cmax, smax, pmax = problem_scale(S, cvec, p, nn)
     tol_w, tol_p = slack(GUESS_TOL, cmax, smax, pmax)
-    changed = False
-    for a in range(nn):
-        k = kind[oth[a]]
-        r = idx[oth[a]]
-        st = state[a]
-        if k == KIND_UNILATERAL:
-            if st == EQUAL and p[a] < -tol_p:
-                state[a] = ZERO
-                changed = True
-            elif st == ZERO and w[a] < -tol_w:
-                state[a] = EQUAL
-                changed = True
-        elif k == KIND_BOX:
-            if st == EQUAL and p[a] > rows.hi[r] + tol_p:
-                state[a] = AT_HI
-                changed = True
-            elif st == EQUAL and p[a] < rows.lo[r] - tol_p:
-                state[a] = AT_LO
-                changed = True
-            elif (st == AT_HI and w[a] > tol_w) or (st == AT_LO and w[a] < -tol_w):
-                state[a] = EQUAL
-                changed = True
+    changed = correct_bounded_rows(rows, part, state, p, w, tol_w, tol_p)
     for a in range(nn):
         if kind[oth[a]] != KIND_FRICTION or (partner[a] >= 0 and partner[a] < a):
             continue
