@@ -187,7 +187,8 @@ def guess_states(rows, part, impulse, state, load, allow_bound=False):
 
 
 @njit(cache=True, inline="always")
-def _sliding(st):
+def is_sliding(st):
+    """Whether a row's state is at its group's bound (SLIDE_POS or SLIDE_NEG)."""
     return st == SLIDE_POS or st == SLIDE_NEG
 
 
@@ -209,8 +210,8 @@ def solve_held(rows, part, sub, ns, state, S, cvec, p, hs):
         a = sub[t]
         r = idx[oth[a]]
         hs.lam[t] = 0.0
-        if state[a] == EQUAL or _sliding(state[a]):
-            slides = slides or _sliding(state[a])
+        if state[a] == EQUAL or is_sliding(state[a]):
+            slides = slides or is_sliding(state[a])
             free[nf] = t
             nf += 1
             p[a] = 0.0
@@ -282,7 +283,7 @@ def _solve_sliding(rows, part, sub, ns, state, nf, hs, p):
     # the sliding groups: each one's first held row and its normal's position in free
     for u in range(nf):
         a = sub[free[u]]
-        if not _sliding(state[a]):
+        if not is_sliding(state[a]):
             continue
         r = idx[oth[a]]
         g = np.int64(-1)
@@ -315,7 +316,7 @@ def _solve_sliding(rows, part, sub, ns, state, nf, hs, p):
         rk = idx[oth[sub[free[gkey[h]]]]]
         for u in range(nf):
             a = sub[free[u]]
-            if not _sliding(state[a]) or not same_group(rows, idx[oth[a]], rk):
+            if not is_sliding(state[a]) or not same_group(rows, idx[oth[a]], rk):
                 continue
             sgn = 1.0 if state[a] == SLIDE_POS else -1.0
             aug[u, nf + h] = sgn
@@ -356,7 +357,7 @@ def _solve_sliding(rows, part, sub, ns, state, nf, hs, p):
         rk = idx[oth[sub[free[gkey[h]]]]]
         for u in range(nf):
             a = sub[free[u]]
-            if _sliding(state[a]) and same_group(rows, idx[oth[a]], rk):
+            if is_sliding(state[a]) and same_group(rows, idx[oth[a]], rk):
                 lam[free[u]] = aug[nf + h, dim]
     return True, pmax
 
@@ -368,7 +369,7 @@ def _group_slip(rows, part, sub, ns, state, lam, r):
     idx, oth = part.idx, part.oth
     for t in range(ns):
         a = sub[t]
-        if _sliding(state[a]) and same_group(rows, idx[oth[a]], r):
+        if is_sliding(state[a]) and same_group(rows, idx[oth[a]], r):
             return lam[t]
     return -1.0
 
@@ -497,12 +498,12 @@ def guess_on_tree(rows, part, plan, bodies, tw, ns, gs):
         return False
     lam = gs.held.lam
     for t in range(ns):
-        if _sliding(state[sub[t]]) and lam[t] < -tol_w:
+        if is_sliding(state[sub[t]]) and lam[t] < -tol_w:
             return False                        # it would slip along its impulse
     columns_velocities(rows, part, plan, bodies, tw, ns, gs)
     for a in range(nn):
         st = state[a]
-        if st == EQUAL or _sliding(st):         # (held: their velocities as solved)
+        if st == EQUAL or is_sliding(st):         # (held: their velocities as solved)
             continue
         i = oth[a]
         r = idx[i]
@@ -601,7 +602,7 @@ def _holding_ok(rows, part, state, p, tol_p):
     their signs."""
     idx, kind, oth = part.idx, part.kind, part.oth
     for a in range(part.nn):
-        if _sliding(state[a]):
+        if is_sliding(state[a]):
             # a sliding row keeps its impulse's sign (the group's bound holds as solved)
             if (p[a] if state[a] == SLIDE_POS else -p[a]) < -tol_p:
                 return False

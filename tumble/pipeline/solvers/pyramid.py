@@ -132,7 +132,7 @@ def complementary(rows, part, S, cvec, p, tol, w):
     """Whether ``p`` (nn,) solves the mixed LCP of ``S p - c`` (module docstring) to ``tol``
     of the problem's scale: normals and limits push or let go, box rows keep their
     bounds, each friction group stays in its pyramid and slips only on its edge, against
-    the direction of its impulse. ``w`` (nn,) is scratch."""
+    the direction of its impulse. ``w`` (nn,) receives ``S p - c``."""
     idx, kind, oth, nn = part.idx, part.kind, part.oth, part.nn
     cmax, smax, pmax = problem_scale(S, cvec, p, nn)
     for a in range(nn):

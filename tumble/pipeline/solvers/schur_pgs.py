@@ -11,19 +11,20 @@ rows' states, which a few cheap sweeps over the small dense ``S`` (nn, nn) find:
    Euclidean projection would converge to impulses that do not dissipate the most).
 2. The state each row's impulse suggests (``states_of``): a pushing normal holds, a
    friction group at its bound slides against its impulse, a box row at a bound keeps it.
-3. That state's held system solved exactly (``guess.solve_held``) and checked against the
-   whole LCP (``pyramid.complementary``, Lemke's own verification). Only a state that
-   passes is kept: the answer is the LCP's to round-off, as Lemke's would be; otherwise
-   Lemke runs as before.
+3. That state's held system solved exactly (``guess.solve_held``; with a pyramid sliding,
+   held normals that depend on the others let go first) and checked against the whole LCP
+   (``pyramid.complementary``, Lemke's own verification), then corrected by the rows that
+   break it and solved again, a few times (``_corrected``). Only a state that passes is
+   kept: the answer is the LCP's to round-off, as Lemke's would be; otherwise Lemke runs
+   as before.
 """
 import numpy as np
-from numba import njit
 
 from ..._jit import noalloc
 from .direct import cholesky_factor_dropping
 from .guess import (AT_HI, AT_LO, EQUAL, GUESS_TOL, REDUNDANT, SLIDE_NEG, SLIDE_POS, ZERO,
                     columns_complement, columns_velocities, correct_bounded_rows,
-                    solve_held)
+                    is_sliding, solve_held)
 from .lemke import VERIFY_TOL
 from .partition import KIND_BOX, KIND_FRICTION, KIND_UNILATERAL, normal_of, same_group
 from .pyramid import complementary, problem_scale, slack
@@ -198,10 +199,9 @@ def _corrected(rows, part, S, cvec, p, lam, state, partner, normal, w):
     lets go, a zero normal moving into its surface holds, a box row past a bound keeps it
     (or leaves it), a sticking pyramid past its bound slides, a sliding one whose slip
     runs along its impulse sticks, a sliding row whose impulse changed sign lets go and a
-    zero row slipping faster than its group slides. Returns whether a state changed."""
+    zero row slipping faster than its group slides. ``w`` (nn,) holds ``S p - c``, as
+    ``pyramid.complementary`` leaves it. Returns whether a state changed."""
     idx, kind, oth, nn = part.idx, part.kind, part.oth, part.nn
-    for a in range(nn):
-        w[a] = _row_residual(S, cvec, p, a, nn)
     cmax, smax, pmax = problem_scale(S, cvec, p, nn)
     tol_w, tol_p = slack(GUESS_TOL, cmax, smax, pmax)
     changed = correct_bounded_rows(rows, part, state, p, w, tol_w, tol_p)
@@ -218,7 +218,7 @@ def _corrected(rows, part, S, cvec, p, lam, state, partner, normal, w):
             continue
         bound = rows.mu[idx[oth[a]]] * max(p[nrm], 0.0)
         load = abs(p[a]) + (abs(p[b]) if b >= 0 else 0.0)
-        sliding = _is_sliding(state[a]) or (b >= 0 and _is_sliding(state[b]))
+        sliding = is_sliding(state[a]) or (b >= 0 and is_sliding(state[b]))
         if not sliding:
             if load > bound + tol_p:
                 for c in (a, b):
@@ -232,7 +232,7 @@ def _corrected(rows, part, S, cvec, p, lam, state, partner, normal, w):
                     state[c] = EQUAL
                     changed = True
             continue
-        slip = lam[a] if _is_sliding(state[a]) else lam[b]
+        slip = lam[a] if is_sliding(state[a]) else lam[b]
         if slip < -tol_w:
             for c in (a, b):
                 if c >= 0:
@@ -242,7 +242,7 @@ def _corrected(rows, part, S, cvec, p, lam, state, partner, normal, w):
         for c in (a, b):
             if c < 0:
                 continue
-            if _is_sliding(state[c]):
+            if is_sliding(state[c]):
                 if (p[c] if state[c] == SLIDE_POS else -p[c]) < -tol_p:
                     state[c] = ZERO
                     changed = True
@@ -261,7 +261,7 @@ def _drop_dependent_normals(part, S, state, normal, hs):
     kind, oth, nn = part.kind, part.oth, part.nn
     sliding = False
     for a in range(nn):
-        sliding = sliding or _is_sliding(state[a])
+        sliding = sliding or is_sliding(state[a])
     if not sliding:
         return
     free, mat, fac = hs.free, hs.mat, hs.fac
@@ -281,11 +281,6 @@ def _drop_dependent_normals(part, S, state, normal, hs):
     for a in range(nn):
         if normal[a] >= 0 and state[normal[a]] == ZERO:
             state[a] = ZERO
-
-
-@njit(cache=True, inline="always")
-def _is_sliding(st):
-    return st == SLIDE_POS or st == SLIDE_NEG
 
 
 @noalloc
