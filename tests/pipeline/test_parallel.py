@@ -55,6 +55,42 @@ def test_parallel_failure_names_the_first_failing_world_and_restores_all():
     assert reports[0][0] == 1
 
 
+def test_parallel_checks_report_what_the_serial_ones_do_and_change_nothing():
+    """Each thread checks its own world; the report is still the serial one (a drive
+    field before a later field of an earlier world; a bad state before any drive), and
+    the worlds that passed -- normalised, stepped -- are put back too."""
+    model = benchmarks.ragdoll(600)
+    reports = []
+    for parallel in (True, False):
+        w = batch(model, 4, parallel)
+        w.step(400)                                   # on the floor: live contacts
+        w.body_quat[0, 3] *= 1.5                      # the checks normalise it
+        before = {f: getattr(w, f).copy() for f in FIELDS[:4]}
+        contacts = [w.contacts_of(k) for k in range(4)]
+        assert min(len(c) for c in contacts) > 0
+        drives = w.control_arrays
+        drives.joint_applied[1, 2, 0] = np.inf        # field 4 in world 1
+        drives.pd_target_q[3, 1, 0] = np.nan          # field 2 in world 3: reported
+        with pytest.raises(tumble.StateError) as drive_err:
+            w.step(5)
+        for f, a in before.items():
+            np.testing.assert_array_equal(getattr(w, f), a, err_msg=f)
+        w.body_vel[2, 4, 1] = before["body_vel"][2, 4, 1] = np.nan
+        with pytest.raises(tumble.StateError) as state_err:
+            w.step(5)
+        reports.append((str(drive_err.value), str(state_err.value)))
+        for f, a in before.items():
+            np.testing.assert_array_equal(getattr(w, f), a, err_msg=f)      # NaN == NaN here
+        for k in range(4):
+            after = w.contacts_of(k)
+            np.testing.assert_array_equal(after.point, contacts[k].point)
+            np.testing.assert_array_equal(after.force, contacts[k].force)
+        assert w.time == pytest.approx(400 / 600)
+    assert reports[0] == reports[1]
+    assert "world 3" in reports[0][0] and "pd_target_q" in reports[0][0]
+    assert "world 2" in reports[0][1]
+
+
 def test_parallel_batch_grows_its_buffers_like_the_serial_one():
     """One world of the batch piles 40 spheres into one spot: more overlapping pairs and
     contacts than the buffers hold. Both paths grow them and end in the same state."""

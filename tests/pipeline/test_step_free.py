@@ -105,10 +105,10 @@ def test_stepping_a_free_body_does_not_load_the_full_step():
     cache (what makes a first run of the demo take seconds, not minutes)."""
     code = ("import tumble\n"
             "from tumble.apps import racket\n"
-            "from tumble.pipeline import call, step_free\n"
+            "from tumble.pipeline import call, parallel, step_free\n"
             "w = racket.build()\n"
             "w.step(10)\n"
-            "print(len(call.step_boxed.signatures), len(call.step_checked_parallel.signatures),"
+            "print(len(call.step_boxed.signatures), len(parallel.step_checked_parallel.signatures),"
             " len(step_free.step_free_boxed.signatures))\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          env=dict(os.environ), timeout=600)

@@ -1,11 +1,14 @@
 """How ``World.step`` enters compiled code: the checks, the step and what surrounds it.
 
 ``step_checked`` is the whole compiled part of a serial ``World.step``: save the state,
-controls and contacts, check the state and the drive inputs (``checks.py``), hold static
-bodies still, feed MJCF position actuators' controls to their joint servos, step
-(``step.step_worlds``), then clear the applied forces -- or, if the step failed, restore
-all it saved, so a failed call leaves the world bit for bit as it was.
-``step_checked_parallel`` is the same around ``parallel.step_worlds_parallel``.
+controls and contacts (``save_inputs``, into the scratch memory: no allocation), check
+the state and the drive inputs (``checks.py``), hold static bodies still, feed MJCF
+position actuators' controls to their joint servos (``prepare_inputs``), step
+(``step.step_worlds``), then clear the applied forces -- or, if anything failed, restore
+all it saved (``restore_inputs``), so a failed call leaves the world as it was: every
+state and control array bit for bit, and each world's live contacts (those below its
+contact count; the slots past it are scratch). ``parallel.step_checked_parallel`` does
+the same with each world's saving, checks and step on a thread.
 
 Each array handed from Python to compiled code costs a record of its shape and data and a
 reference (for the step's ~210 arrays, 5.6 us of a ``world.step(1)`` call's 25 us, on the
@@ -16,10 +19,9 @@ and calls ``step_boxed`` through its compiled entry point (``_jit.ENTRY_POINTS``
 import numpy as np
 from numba import njit
 
-from .._jit import ArgBox, assign_arrays, copy_arrays, noalloc
+from .._jit import ArgBox, assign_arrays, assign_heads, noalloc
 from ..model.types import STATIC
 from .checks import DRIVE_OK, STATE_OK, check_drives, check_state
-from .parallel import step_worlds_parallel, world_works_fit
 from .step import STEP_OK, step_worlds
 from .work import work_fits
 
@@ -61,7 +63,7 @@ def fold_position_actuators(m, c):
 
 
 @njit(cache=True, inline="always")
-def _prepare(m, s, c, ball):
+def prepare_inputs(m, s, c, ball):
     """The checks, then the inputs made ready. Returns (stage, code, world, index) with
     stage CALL_STEPPED when the step may go on."""
     code, w, b = check_state(s, c)
@@ -80,7 +82,7 @@ def step_checked(m, s, c, con, pairs, n, o, ball, work):
     """The whole of a serial ``World.step`` that runs compiled: checks (``ball``
     (njoint,) bool marks ball joints, whose targets must not be zero), the step with the
     scratch memory ``work``, the applied loads cleared once it has stepped; on a failure
-    every state, control and contact array restored as it came in.
+    every state and control array and the live contacts restored as they came in.
 
     Returns (stage, code, world, index, step, needed): stage CALL_BAD_STATE or
     CALL_BAD_DRIVE with the check's (code, world, body or joint) and nothing changed;
@@ -89,53 +91,53 @@ def step_checked(m, s, c, con, pairs, n, o, ball, work):
     """
     if not work_fits(work, m, s, c, con, o):
         return CALL_NEW_WORK, 0, -1, -1, -1, np.int64(0)
-    saved = _save(s, c, con)
-    stage, code, w, i = _prepare(m, s, c, ball)
+    save_inputs(s, c, con, work.saved)
+    stage, code, w, i = prepare_inputs(m, s, c, ball)
     if stage != CALL_STEPPED:
+        restore_inputs(s, c, con, work.saved)
         return stage, code, w, i, -1, np.int64(0)
     status, fw, fk, fb, needed = step_worlds(m, s, c, con, pairs, n, o, work)
-    _finish(s, c, con, saved, status)
-    return CALL_STEPPED, status, fw, fb, fk, needed
-
-
-@njit(cache=True)
-def step_checked_parallel(m, s, c, con, pairs, n, o, ball, works):
-    """``step_checked`` with the worlds spread over Numba's threads, each world with its
-    scratch memory in ``works`` (``parallel.make_world_works``; CALL_NEW_WORK when they
-    do not fit)."""
-    if not world_works_fit(works, m, s, c, con, o):
-        return CALL_NEW_WORK, 0, -1, -1, -1, np.int64(0)
-    saved = _save(s, c, con)
-    stage, code, w, i = _prepare(m, s, c, ball)
-    if stage != CALL_STEPPED:
-        return stage, code, w, i, -1, np.int64(0)
-    status, fw, fk, fb, needed = step_worlds_parallel(m, s, c, con, pairs, n, o, works)
-    _finish(s, c, con, saved, status)
-    return CALL_STEPPED, status, fw, fb, fk, needed
-
-
-@njit(cache=True, inline="always")
-def _save(s, c, con):
-    """Copies of what a call may change: the state, the contacts, and the four control
-    arrays the preparation writes (target quaternions normalised, position actuators'
-    targets); the step itself writes no control."""
-    return (copy_arrays(s), copy_arrays(con), c.pd_target_quat.copy(),
-            c.body_target_quat.copy(), c.pd_target_q.copy(), c.pd_target_qd.copy())
-
-
-@njit(cache=True, inline="always")
-def _finish(s, c, con, saved, status):
-    """After the step: the applied loads cleared if it stepped, else everything restored
-    from ``saved`` (``_save``, taken before the checks normalised anything)."""
     if status == STEP_OK:
         clear_applied(c)
     else:
-        assign_arrays(s, saved[0])
-        assign_arrays(con, saved[1])
-        c.pd_target_quat[:] = saved[2]
-        c.body_target_quat[:] = saved[3]
-        c.pd_target_q[:] = saved[4]
-        c.pd_target_qd[:] = saved[5]
+        restore_inputs(s, c, con, work.saved)
+    return CALL_STEPPED, status, fw, fb, fk, needed
+
+
+@noalloc
+def save_inputs(s, c, con, saved):
+    """Copy what a call may change into ``saved`` (``work.Saved``, the same worlds): the
+    state, each world's live contacts, and the four control arrays the preparation writes
+    (target quaternions normalised, position actuators' targets); the step itself writes
+    no control."""
+    assign_arrays(saved.state, s)
+    assign_heads(saved.contacts, con, s.contact_count)
+    _copy_controls(saved, c)
+
+
+@noalloc
+def restore_inputs(s, c, con, saved):
+    """Undo a failed call: everything ``save_inputs`` copied, put back."""
+    assign_arrays(s, saved.state)
+    assign_heads(con, saved.contacts, s.contact_count)
+    _copy_controls(c, saved)
+
+
+@njit(cache=True, inline="always")
+def _copy_controls(dst, src):
+    """The four control arrays a call writes, from ``src`` into ``dst`` (namedtuples
+    holding them under the controls' names)."""
+    for a, b in ((dst.pd_target_quat, src.pd_target_quat),
+                 (dst.body_target_quat, src.body_target_quat)):
+        for w in range(a.shape[0]):
+            for i in range(a.shape[1]):
+                for k in range(4):
+                    a[w, i, k] = b[w, i, k]
+    for a, b in ((dst.pd_target_q, src.pd_target_q), (dst.pd_target_qd, src.pd_target_qd)):
+        for w in range(a.shape[0]):
+            for i in range(a.shape[1]):
+                for k in range(a.shape[2]):
+                    a[w, i, k] = b[w, i, k]
 
 
 @njit(cache=True)

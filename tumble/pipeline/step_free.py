@@ -14,7 +14,7 @@ from numba import njit
 from .._jit import ArgBox, world_of
 from .arrays import (STAGE_CHECK, STAGE_COLLIDE, STAGE_COORDINATES, STAGE_FORCES,
                      STAGE_INTEGRATE_POSITIONS, STAGE_INTEGRATE_VELOCITIES, STAGE_PROJECT)
-from .call import CALL_STEPPED, _prepare, clear_applied
+from .call import CALL_STEPPED, clear_applied, prepare_inputs
 from .forces import accumulate_forces
 from .integrate import first_bad_body, integrate_positions, integrate_velocities
 from .step import STEP_DIVERGED, STEP_OK, _lap, _start
@@ -66,6 +66,17 @@ def _restore(dst, src):
 
 
 @njit(cache=True, inline="always")
+def _restore_saved(s, c, saved):
+    """Put back what ``step_free_checked`` saved."""
+    _restore(s.body_pos, saved[0])
+    _restore(s.body_quat, saved[1])
+    _restore(s.body_vel, saved[2])
+    _restore(s.body_angvel, saved[3])
+    _restore(s.stage_ticks, saved[4])
+    _restore(c.body_target_quat, saved[5])
+
+
+@njit(cache=True, inline="always")
 def step_free_checked(m, s, c, n, o, ball):
     """``call.step_checked`` around ``step_free_worlds``: the same checks, the same
     rollback on a failure, the same (stage, code, world, index, step, needed) report
@@ -74,19 +85,15 @@ def step_free_checked(m, s, c, n, o, ball):
     checks normalise them); joints, contacts and actuators have no entries."""
     saved = (s.body_pos.copy(), s.body_quat.copy(), s.body_vel.copy(), s.body_angvel.copy(),
              s.stage_ticks.copy(), c.body_target_quat.copy())
-    stage, code, w, i = _prepare(m, s, c, ball)
+    stage, code, w, i = prepare_inputs(m, s, c, ball)
     if stage != CALL_STEPPED:
+        _restore_saved(s, c, saved)
         return stage, code, w, i, -1, np.int64(0)
     status, fw, fk, fb = step_free_worlds(m, s, c, n, o)
     if status == STEP_OK:
         clear_applied(c)
     else:
-        _restore(s.body_pos, saved[0])
-        _restore(s.body_quat, saved[1])
-        _restore(s.body_vel, saved[2])
-        _restore(s.body_angvel, saved[3])
-        _restore(s.stage_ticks, saved[4])
-        _restore(c.body_target_quat, saved[5])
+        _restore_saved(s, c, saved)
     return CALL_STEPPED, status, fw, fb, fk, np.int64(0)
 
 

@@ -5,7 +5,7 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
-from .._jit import noalloc
+from .._jit import copy_arrays, noalloc, pack_arrays
 from .actuators import servo_on, servoed_bodies
 from .arrays import CONTACT_PENALTY
 from .collide import listed_pairs, listed_primitives
@@ -38,13 +38,21 @@ StepWork = namedtuple("StepWork", [
     "island",       # (nbody,) int64 each body's island (sleep.py)
     "island_rest",  # (nbody,) s the least time at rest in each island
     "awake",        # (nbody,) bool the dynamic bodies of awake islands
+    "saved",        # Saved: the call's inputs, restored if it fails (call.save_inputs)
 ])
+
+# What a step call may change, copied before it (the worlds' leading axis kept): the
+# state, the contacts (those below each world's count are the ones restored) and the four
+# control arrays the checks and the position actuators write.
+Saved = namedtuple("Saved", ["state", "contacts", "pd_target_quat", "body_target_quat",
+                             "pd_target_q", "pd_target_qd"])
 
 
 @njit(cache=True)
 def make_step_work(m, s, c, con, o):
     """Scratch memory for stepping the worlds of state ``s`` with controls ``c``, contacts
-    ``con`` and options ``o``."""
+    ``con`` and options ``o`` (the arrays of every world of a serial step, or views of
+    one world's slice for the threads' step)."""
     nb = s.body_pos.shape[1]
     ng = m.geom_type.shape[0]
     njrow = s.row_impulse.shape[1]
@@ -56,14 +64,19 @@ def make_step_work(m, s, c, con, o):
     project = njrow > 0 and o.projection > 0
     listed = listed_pairs(m, nb)
     caches = make_solver_caches(m, servoed, nb)
-    return StepWork(np.int64(cap), np.int64(ncap), project, np.int64(nper),
+    # one buffer for all of it: a call touches one reference count instead of ~150
+    return pack_arrays(StepWork(
+        np.int64(cap), np.int64(ncap), project, np.int64(nper),
                     listed_primitives(m, listed), np.empty((nb, 3)), np.empty((nb, 3)),
                     np.zeros((nb, 3, 3)), rows, np.zeros(ncap), np.zeros((ng, 3)),
                     np.zeros((ng, 4)), np.zeros((ng, 3)), np.zeros((ng, 3)),
                     make_contacts_nb(cap), np.empty((nb, 3)), np.empty((nb, 3)), servoed,
                     projection_setup(m, rows, nb, project), caches,
                     make_fast_scratch(ncap, nb, caches[1]), listed, np.zeros(nb, np.int64),
-                    np.zeros(nb), np.ones(nb, np.bool_))
+                    np.zeros(nb), np.ones(nb, np.bool_),
+                    Saved(copy_arrays(s), copy_arrays(con), c.pd_target_quat.copy(),
+                          c.body_target_quat.copy(), c.pd_target_q.copy(),
+                          c.pd_target_qd.copy())))
 
 
 @njit(cache=True, inline="always")
@@ -77,7 +90,9 @@ def _row_capacity(njrow, nservoed, nper, cap, o):
 def work_fits(work, m, s, c, con, o):
     """Whether ``work`` (make_step_work) still fits the state, controls, contacts and
     options."""
-    return fits_world(work, m, s.row_impulse.shape[1], con.depth.shape[1], c.body_servo, o)
+    return (work.saved.state.body_pos.shape[0] == s.body_pos.shape[0]
+            and fits_world(work, m, s.row_impulse.shape[1], con.depth.shape[1], c.body_servo,
+                           o))
 
 
 @noalloc

@@ -23,7 +23,7 @@ from ..pipeline.checks import (DRIVE_BAD_MAX, DRIVE_FIELDS, DRIVE_ZERO_BODY_QUAT
                                STATE_NONFINITE_VEL, STATE_ZERO_QUAT)
 from ..pipeline.contacts.arrays import make_contacts
 from ..pipeline.joints.rows import joint_coordinates
-from ..pipeline.parallel import make_world_works
+from ..pipeline.parallel import make_world_works, step_checked_parallel
 from ..pipeline.step_free import box_free_args, is_free, step_free_boxed
 from ..pipeline.step import STEP_DIVERGED, STEP_MORE_CONTACTS, STEP_MORE_PAIRS
 from ..pipeline.work import make_step_work
@@ -360,7 +360,7 @@ class World(StateMixin, ControlMixin, QueryMixin):
                 if self._works is None:
                     self._works = make_world_works(self.model.arrays, self._state,
                                                    self._control, self._contacts, o)
-                stage, code, w, i, k, needed = call.step_checked_parallel(
+                stage, code, w, i, k, needed = step_checked_parallel(
                     self.model.arrays, self._state, self._control, self._contacts,
                     self._pairs, n, o, self._ball_joints, self._works)
             else:
