@@ -29,7 +29,7 @@ import numpy as np
 from numba import njit, prange
 from numba.typed import List
 
-from .._jit import worlds_view
+from .._jit import ArgBox, worlds_view
 from .call import (CALL_BAD_DRIVE, CALL_BAD_STATE, CALL_NEW_WORK, CALL_STEPPED, clear_applied,
                    prepare_inputs, restore_inputs, save_inputs)
 from .checks import DRIVE_ZERO_BODY_QUAT
@@ -95,6 +95,21 @@ def step_checked_parallel(m, s, c, con, pairs, n, o, ball, works):
         return CALL_NEW_WORK, 0, -1, -1, -1, np.int64(0)
     return (out[w, _STAGE], out[w, _CODE], w, out[w, _INDEX], out[w, _STEP],
             out[w, _NEEDED])
+
+
+@njit(cache=True)
+def box_parallel_args(m, s, c, con, pairs, ball, works):
+    """The arrays ``step_checked_parallel`` takes, the tuple (m, s, c, con, pairs, ball,
+    works), in one ``ArgBox`` for ``step_boxed_parallel`` (``call.box_step_args``: one
+    object to hand over instead of ~100 arrays and a list)."""
+    return ArgBox((m, s, c, con, pairs, ball, works))
+
+
+@njit(cache=True)
+def step_boxed_parallel(box, n, o):
+    """``step_checked_parallel`` on the arrays held by ``box`` (``box_parallel_args``)."""
+    m, s, c, con, pairs, ball, works = box.args
+    return step_checked_parallel(m, s, c, con, pairs, n, o, ball, works)
 
 
 @njit(cache=True)

@@ -23,7 +23,7 @@ from ..pipeline.checks import (DRIVE_BAD_MAX, DRIVE_FIELDS, DRIVE_ZERO_BODY_QUAT
                                STATE_NONFINITE_VEL, STATE_ZERO_QUAT)
 from ..pipeline.contacts.arrays import make_contacts
 from ..pipeline.joints.rows import joint_coordinates
-from ..pipeline.parallel import make_world_works, step_checked_parallel
+from ..pipeline.parallel import box_parallel_args, make_world_works, step_boxed_parallel
 from ..pipeline.step_free import box_free_args, is_free, step_free_boxed
 from ..pipeline.step import STEP_DIVERGED, STEP_MORE_CONTACTS, STEP_MORE_PAIRS
 from ..pipeline.work import make_step_work
@@ -48,14 +48,15 @@ _DRIVE_NAMES = {"motor_target": "joint_motor_target", "joint_applied": "joint to
 
 
 def _drops_box(attr):
-    """A World property kept in ``attr`` whose assignment drops the step's box
-    (``World._box``, ``call.box_step_args``): the box holds the old object's arrays."""
+    """A World property kept in ``attr`` whose assignment drops the step's boxes
+    (``World._box``, ``call.box_step_args``, and ``World._parallel_box``,
+    ``parallel.box_parallel_args``): a box holds the old object's arrays."""
     def get(world):
         return getattr(world, attr)
 
     def put(world, value):
         setattr(world, attr, value)
-        world._box = None
+        world._box = world._parallel_box = None
     return property(get, put)
 
 
@@ -138,6 +139,8 @@ class World(StateMixin, ControlMixin, QueryMixin):
                                np.int32)
         self._work = None          # scratch of the serial step, kept between calls
         self._works = None         # the parallel step's, one per world
+        self._parallel_box = None  # parallel.box_parallel_args of the arrays, once made
+        self._parallel_entry = None  # step_boxed_parallel's compiled entry point
         self._entry = None         # step_boxed's compiled entry point, once called
         self._free_entry = None    # step_free_boxed's, once called (a free model)
         self._free_box = None      # step_free.box_free_args of the arrays, once made
@@ -145,10 +148,11 @@ class World(StateMixin, ControlMixin, QueryMixin):
         self.reset()
         self._prepare_step()
 
-    # The step's box (``_box``) holds these objects' arrays: replacing one drops it.
+    # The step's boxes hold these objects' arrays: replacing one drops them.
     _contacts = _drops_box("_contacts_arrays")
     _pairs = _drops_box("_pairs_buffer")
     _work = _drops_box("_work_memory")
+    _works = _drops_box("_world_works")
 
     def _prepare_step(self):
         """The serial step's scratch memory and compiled entry point, made now when an
@@ -357,12 +361,7 @@ class World(StateMixin, ControlMixin, QueryMixin):
             if is_free(self.model, self._control.body_servo):
                 stage, code, w, i, k, needed = self._call_free(n, o)
             elif self.parallel:
-                if self._works is None:
-                    self._works = make_world_works(self.model.arrays, self._state,
-                                                   self._control, self._contacts, o)
-                stage, code, w, i, k, needed = step_checked_parallel(
-                    self.model.arrays, self._state, self._control, self._contacts,
-                    self._pairs, n, o, self._ball_joints, self._works)
+                stage, code, w, i, k, needed = self._call_parallel(n, o)
             else:
                 stage, code, w, i, k, needed = self._call_serial(n, o)
             if stage == call.CALL_BAD_STATE:
@@ -403,6 +402,24 @@ class World(StateMixin, ControlMixin, QueryMixin):
             self._entry = ENTRY_POINTS.get(call.step_boxed, args)
             return out
         return self._entry(*args)
+
+    def _call_parallel(self, n, o):
+        """``parallel.step_boxed_parallel`` on the arrays and each world's scratch held in
+        ``self._parallel_box``, through its compiled entry point once known (as
+        ``_call_serial``)."""
+        if self._works is None:
+            self._works = make_world_works(self.model.arrays, self._state, self._control,
+                                           self._contacts, o)
+        if self._parallel_box is None:
+            self._parallel_box = box_parallel_args(
+                self.model.arrays, self._state, self._control, self._contacts, self._pairs,
+                self._ball_joints, self._works)
+        args = (self._parallel_box, n, o)
+        if self._parallel_entry is None:
+            out = step_boxed_parallel(*args)
+            self._parallel_entry = ENTRY_POINTS.get(step_boxed_parallel, args)
+            return out
+        return self._parallel_entry(*args)
 
     def _call_free(self, n, o):
         """``step_free.step_free_boxed`` (a model with nothing to collide, constrain or
