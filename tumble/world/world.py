@@ -396,12 +396,7 @@ class World(StateMixin, ControlMixin, QueryMixin):
             self._work = self._make_work(o)
         if self._box is None:
             self._box = self._make_box(self._work)
-        args = (self._box, n, o)
-        if self._entry is None:
-            out = call.step_boxed(*args)
-            self._entry = ENTRY_POINTS.get(call.step_boxed, args)
-            return out
-        return self._entry(*args)
+        return self._through_entry("_entry", call.step_boxed, (self._box, n, o))
 
     def _call_parallel(self, n, o):
         """``parallel.step_boxed_parallel`` on the arrays and each world's scratch held in
@@ -414,12 +409,8 @@ class World(StateMixin, ControlMixin, QueryMixin):
             self._parallel_box = box_parallel_args(
                 self.model.arrays, self._state, self._control, self._contacts, self._pairs,
                 self._ball_joints, self._works)
-        args = (self._parallel_box, n, o)
-        if self._parallel_entry is None:
-            out = step_boxed_parallel(*args)
-            self._parallel_entry = ENTRY_POINTS.get(step_boxed_parallel, args)
-            return out
-        return self._parallel_entry(*args)
+        return self._through_entry("_parallel_entry", step_boxed_parallel,
+                                   (self._parallel_box, n, o))
 
     def _call_free(self, n, o):
         """``step_free.step_free_boxed`` (a model with nothing to collide, constrain or
@@ -428,12 +419,18 @@ class World(StateMixin, ControlMixin, QueryMixin):
         if self._free_box is None:
             self._free_box = box_free_args(self.model.arrays, self._state, self._control,
                                            self._ball_joints)
-        args = (self._free_box, n, o)
-        if self._free_entry is None:
-            out = step_free_boxed(*args)
-            self._free_entry = ENTRY_POINTS.get(step_free_boxed, args)
+        return self._through_entry("_free_entry", step_free_boxed, (self._free_box, n, o))
+
+    def _through_entry(self, attr, dispatcher, args):
+        """``dispatcher(*args)``, straight through its compiled entry point once known (kept
+        in the attribute ``attr``): the first call goes through the dispatcher, which
+        compiles or loads the code, and the entry point is found after it."""
+        entry = getattr(self, attr)
+        if entry is None:
+            out = dispatcher(*args)
+            setattr(self, attr, ENTRY_POINTS.get(dispatcher, args))
             return out
-        return self._free_entry(*args)
+        return entry(*args)
 
     def _make_work(self, o):
         """The serial step's scratch memory (``work.make_step_work``), through its compiled
