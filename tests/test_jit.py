@@ -4,11 +4,11 @@ from collections import namedtuple
 
 import numpy as np
 import pytest
-from numba import njit, typeof as numba_type
+from numba import njit
 from numba.core.errors import TypingError
 
 from tumble._jit import (ENTRY_POINTS, HAS_TICKS, ArgBox, assign_arrays, assign_heads,
-                         copy_arrays, noalloc, pack_arrays, tick_seconds, ticks, world_of)
+                         copy_arrays, noalloc, tick_seconds, ticks, world_of)
 
 Pair = namedtuple("Pair", ["a", "count"])
 
@@ -71,29 +71,6 @@ def test_assign_heads_copies_each_worlds_first_entries_only():
     assert (dst.x[1, 2:] == -1).all() and (dst.y[1, 2:] == -1).all()
     np.testing.assert_array_equal(dst.x[2], src.x[2])
     np.testing.assert_array_equal(dst.y[2], src.y[2])
-
-
-def test_pack_arrays_keeps_types_and_values_in_one_buffer():
-    Inner = namedtuple("Inner", ["flags", "n"])
-    Outer = namedtuple("Outer", ["a", "inner", "pair"])
-
-    @njit
-    def packed_and_shared(t):
-        p = pack_arrays(t)
-        p.a[0, 0] = 99.0                    # the copy, not the original
-        first = p.a.ctypes.data
-        return p, (p.inner.flags.ctypes.data - first, p.pair[1].ctypes.data - first)
-
-    t = Outer(np.arange(6.0).reshape(2, 3), Inner(np.ones(3, np.bool_), np.int64(7)),
-              (np.arange(5, dtype=np.int32), np.zeros((2, 2, 2))))
-    p, offsets = packed_and_shared(t)
-    assert numba_type(p) == numba_type(t)
-    assert t.a[0, 0] == 0.0 and p.a[0, 0] == 99.0
-    np.testing.assert_array_equal(p.a[1], t.a[1])
-    assert p.inner.flags.all() and p.inner.n == 7 and p.pair[0].tolist() == [0, 1, 2, 3, 4]
-    # laid out in order, each on its own 64-byte line, within one buffer
-    assert p.a.ctypes.data % 64 == 0
-    assert offsets[0] == 64 and offsets[1] == 64 + 64 + 64
 
 
 @pytest.mark.skipif(not HAS_TICKS, reason="no counter on this machine")

@@ -1,6 +1,6 @@
 """Every use of Numba's internals in one module, so that a Numba upgrade touches one file:
 ``noalloc`` (the ``_nrt`` option and a compiler pass), the namedtuple helpers of compiled
-code (``world_of``, ``copy_arrays``, ``assign_heads``, ``pack_arrays``, ...), a clock for
+code (``world_of``, ``copy_arrays``, ``assign_heads``, ...), a clock for
 compiled code (``ticks``), the box that hands many arrays to compiled code as one object
 (``ArgBox``), and the entry points that skip the dispatcher (``ENTRY_POINTS``).
 
@@ -138,17 +138,6 @@ def copy_arrays(t):
     raise NotImplementedError("copy_arrays is only available in compiled code")
 
 
-def pack_arrays(t):
-    """A copy of the (nested) tuple ``t`` whose every array lies in one new buffer
-    (compiled): same types, same values, other fields as they are.
-
-    Numba counts references to each array a compiled function receives; the count lives
-    beside the array's memory, so for a world's scratch (~150 arrays) stepped after 255
-    other worlds, each count is a cache miss -- 13 us a call to take the scratch out of
-    the list of worlds' scratch. Views of one buffer share one count: one line, hot."""
-    raise NotImplementedError("pack_arrays is only available in compiled code")
-
-
 def assign_arrays(dst, src):
     """``dst[i][...] = src[i]`` for every array of the namedtuples (compiled; element by
     element, so a ``noalloc`` function may call it)."""
@@ -185,60 +174,6 @@ def _worlds_view(t, w0, w1):
         fields = ", ".join(f"t[{i}][w0:w1]" for i in range(len(t.types)))
         return _generated("impl", "t, w0, w1", f"    return cls({fields})\n", t.instance_class)
     return None
-
-
-_PACK_ALIGN = 64      # bytes: each packed array starts on its own cache line
-
-
-@njit(cache=True)
-def _carve(buf, off, like):
-    """A view of ``buf`` (uint8) from byte ``off`` with the dtype and shape of the
-    C-contiguous ``like``, holding a copy of it. (Not inlined: ~150 inlined copies made
-    LLVM take minutes over the function that packs the step's scratch.)"""
-    v = buf[off:off + like.nbytes].view(like.dtype).reshape(like.shape)
-    src = like.reshape(like.size).view(np.uint8)
-    for k in range(like.nbytes):
-        buf[off + k] = src[k]
-    return v
-
-
-def _pack_tree(t, expr, leaves, classes):
-    """Source building a tuple of type ``t`` (read as ``expr``) again with its arrays
-    replaced by ``a0``, ``a1``, ... (appending each array's expression to ``leaves``;
-    namedtuple classes to ``classes``)."""
-    if isinstance(t, types.Array):
-        leaves.append(expr)
-        return f"a{len(leaves) - 1}"
-    if isinstance(t, types.BaseTuple):
-        items = [_pack_tree(v, f"{expr}[{i}]", leaves, classes) for i, v in enumerate(t.types)]
-        if isinstance(t, types.BaseNamedTuple):
-            classes.append(t.instance_class)
-            return f"cls{len(classes) - 1}({', '.join(items)})"
-        return "(" + "".join(f"{x}, " for x in items) + ")"
-    return expr
-
-
-@overload(pack_arrays)
-def _pack_arrays(t):
-    if not isinstance(t, types.BaseTuple):
-        return None
-    leaves, classes = [], []
-    built = _pack_tree(t, "t", leaves, classes)
-    align = _PACK_ALIGN
-    body = [f"    n{i} = ({x}.nbytes + {align - 1}) // {align} * {align}\n"
-            for i, x in enumerate(leaves)]
-    body.append("    buf = np.empty(" + " + ".join(["0"] + [f"n{i}" for i in range(len(leaves))])
-                + f" + {align}, np.uint8)\n")
-    # the buffer's start rounded up to a line, then each array on its own
-    body.append(f"    off = (-buf.ctypes.data) % {align}\n")
-    for i, x in enumerate(leaves):
-        body.append(f"    a{i} = _carve(buf, off, {x})\n    off += n{i}\n")
-    body.append(f"    return {built}\n")
-    src = "def impl(t):\n" + "".join(body)
-    ns = {"np": np, "_carve": _carve}
-    ns.update({f"cls{i}": c for i, c in enumerate(classes)})
-    exec(src, ns)
-    return ns["impl"]
 
 
 @overload(copy_arrays)

@@ -5,7 +5,7 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
-from .._jit import copy_arrays, noalloc, pack_arrays
+from .._jit import copy_arrays, noalloc
 from .actuators import servo_on, servoed_bodies
 from .arrays import CONTACT_PENALTY
 from .collide import listed_pairs, listed_primitives
@@ -64,9 +64,7 @@ def make_step_work(m, s, c, con, o):
     project = njrow > 0 and o.projection > 0
     listed = listed_pairs(m, nb)
     caches = make_solver_caches(m, servoed, nb)
-    # one buffer for all of it: a call touches one reference count instead of ~150
-    return pack_arrays(StepWork(
-        np.int64(cap), np.int64(ncap), project, np.int64(nper),
+    return StepWork(np.int64(cap), np.int64(ncap), project, np.int64(nper),
                     listed_primitives(m, listed), np.empty((nb, 3)), np.empty((nb, 3)),
                     np.zeros((nb, 3, 3)), rows, np.zeros(ncap), np.zeros((ng, 3)),
                     np.zeros((ng, 4)), np.zeros((ng, 3)), np.zeros((ng, 3)),
@@ -76,7 +74,7 @@ def make_step_work(m, s, c, con, o):
                     np.zeros(nb), np.ones(nb, np.bool_),
                     Saved(copy_arrays(s), copy_arrays(con), c.pd_target_quat.copy(),
                           c.body_target_quat.copy(), c.pd_target_q.copy(),
-                          c.pd_target_qd.copy())))
+                          c.pd_target_qd.copy()))
 
 
 @njit(cache=True, inline="always")
