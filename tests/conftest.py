@@ -62,6 +62,9 @@ STEP_FREE = [
 ]
 
 
+# First, so that the marks are on the items when pytest-xdist's own hook turns them into
+# groups (without it, xdist ran first and the groups were never formed).
+@pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(config, items):
     """One xdist group per test file (its kernels compile once), ``SHARED_WORKER`` files in
     one group; files ordered ``FIRST``, then ``STEP_FREE``, then the rest as collected."""

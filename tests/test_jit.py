@@ -1,14 +1,15 @@
-"""tumble._jit: the noalloc rule is enforced, the namedtuple helpers, the clock and the
-argument box work."""
+"""tumble._jit: the noalloc rule is enforced, the namedtuple helpers, the clock, the
+argument box and calls through a compiled function's address work."""
 from collections import namedtuple
 
 import numpy as np
 import pytest
-from numba import njit
+from numba import njit, typeof, types
 from numba.core.errors import TypingError
 
 from tumble._jit import (ENTRY_POINTS, HAS_TICKS, ArgBox, assign_arrays, assign_heads,
-                         copy_arrays, noalloc, tick_seconds, ticks, world_of)
+                         call_compiled, compiled_address, copy_arrays, noalloc, tick_seconds,
+                         ticks, world_of)
 
 Pair = namedtuple("Pair", ["a", "count"])
 
@@ -54,6 +55,19 @@ def test_copy_and_assign_restore_every_field():
     t = Pair(np.arange(6.0).reshape(3, 2), np.arange(3))
     scramble_and_restore(t)
     assert t.a.tolist() == [[0, 1], [2, 3], [4, 5]] and t.count.tolist() == [0, 1, 2]
+
+
+def test_assign_arrays_takes_plain_tuples_of_arrays_of_any_rank():
+    @noalloc
+    def assign(dst, src):
+        assign_arrays(dst, src)
+        return 0
+
+    src = (np.arange(24.0).reshape(2, 3, 4), np.arange(3), np.ones((2, 2), np.bool_))
+    dst = (np.zeros((2, 3, 4)), np.zeros(3, np.int64), np.zeros((2, 2), np.bool_))
+    assign(dst, src)
+    for a, b in zip(dst, src):
+        np.testing.assert_array_equal(a, b)
 
 
 def test_assign_heads_copies_each_worlds_first_entries_only():
@@ -117,3 +131,32 @@ def test_an_argbox_holds_the_very_arrays_it_was_made_from():
     assert ref[0] == 12.0
     other = _boxed(np.zeros(5), Two(np.arange(2.0), np.zeros(4)))
     assert ENTRY_POINTS.get(_bump_boxed, (other, 1.0)) is entry     # same types
+
+
+@njit(cache=True)
+def _scaled_sum(box, k):
+    a, pair = box.args
+    return k * (a.sum() + pair.b.sum()), a.shape[0]
+
+
+@njit          # not cached: the test reads its LLVM code, which Numba keeps only when it compiles
+def _sums_through_address(address, box, ks):
+    out = np.zeros(ks.shape[0])
+    for i in range(ks.shape[0]):
+        total, n = call_compiled(address, _scaled_sum, (box, ks[i]))
+        out[i] = total + n
+    return out
+
+
+def test_call_compiled_runs_the_callee_without_linking_its_code():
+    """The caller gets the callee's results through the address of its compiled code, and
+    the caller's code holds a call through a pointer, not the callee's body."""
+    box = _boxed(np.arange(3.0), Two(np.zeros(2), np.full(4, 0.5)))
+    address = compiled_address(_scaled_sum, (typeof(box), types.float64))
+    assert address == compiled_address(_scaled_sum, (typeof(box), types.float64))
+    out = _sums_through_address(address, box, np.array([1.0, 2.0]))
+    np.testing.assert_array_equal(out, [5.0 + 3, 10.0 + 3])
+    (ir,) = _sums_through_address.inspect_llvm().values()
+    callee = _scaled_sum.overloads[(typeof(box), types.float64)].fndesc.llvm_func_name
+    assert f"define i32 @\"{callee}\"" not in ir and f"define i32 @{callee}" not in ir
+    assert "inttoptr" in ir

@@ -2,7 +2,8 @@
 ``noalloc`` (the ``_nrt`` option and a compiler pass), the namedtuple helpers of compiled
 code (``world_of``, ``copy_arrays``, ``assign_heads``, ...), a clock for
 compiled code (``ticks``), the box that hands many arrays to compiled code as one object
-(``ArgBox``), and the entry points that skip the dispatcher (``ENTRY_POINTS``).
+(``ArgBox``), the entry points that skip the dispatcher (``ENTRY_POINTS``), and calls
+between compiled functions through an address (``call_compiled``, ``compiled_address``).
 
 ``noalloc``: the Numba decorator for compiled helpers that allocate nothing.
 
@@ -134,13 +135,13 @@ def worlds_view(t, w0, w1):
 
 
 def copy_arrays(t):
-    """The namedtuple ``t`` with every array copied (compiled)."""
+    """The tuple or namedtuple ``t`` with every array copied (compiled)."""
     raise NotImplementedError("copy_arrays is only available in compiled code")
 
 
 def assign_arrays(dst, src):
-    """``dst[i][...] = src[i]`` for every array of the namedtuples (compiled; element by
-    element, so a ``noalloc`` function may call it)."""
+    """``dst[i][...] = src[i]`` for every array of the tuples or namedtuples (compiled;
+    element by element, so a ``noalloc`` function may call it)."""
     raise NotImplementedError("assign_arrays is only available in compiled code")
 
 
@@ -178,9 +179,11 @@ def _worlds_view(t, w0, w1):
 
 @overload(copy_arrays)
 def _copy_arrays(t):
+    fields = "".join(f"t[{i}].copy(), " for i in range(len(getattr(t, "types", ()))))
     if isinstance(t, types.BaseNamedTuple):
-        fields = ", ".join(f"t[{i}].copy()" for i in range(len(t.types)))
         return _generated("impl", "t", f"    return cls({fields})\n", t.instance_class)
+    if isinstance(t, types.BaseTuple):
+        return _generated("impl", "t", f"    return ({fields})\n")
     return None
 
 
@@ -197,7 +200,7 @@ def _copy_loops(i, ndim, bounds):
 
 @overload(assign_arrays)
 def _assign_arrays(dst, src):
-    if isinstance(dst, types.BaseNamedTuple):
+    if isinstance(dst, types.BaseTuple):
         body = "".join(_copy_loops(i, a.ndim, [f"a.shape[{k}]" for k in range(a.ndim)])
                        for i, a in enumerate(dst.types))
         return _generated("impl", "dst, src", body + "    return 0\n")
@@ -339,3 +342,49 @@ def compiled_any(dispatcher):
 
 #: The process's entry points (a memo: it changes how fast a call starts, never a result).
 ENTRY_POINTS = EntryPoints()
+
+
+# ----------------------------------------------------------------------------------------
+# Compiled code calling compiled code through an address.
+#
+# A compiled function links in the LLVM code of every compiled function it calls and
+# optimises and emits the lot again: each level of callers above the step pays for the
+# whole step once more when it compiles cold (the batched step's loop over threads cost
+# about two minutes that way). ``call_compiled`` calls instead through an address handed
+# over at run time, so the caller's code holds only the call, and caches like any other
+# code (an address baked in would not survive the process).
+
+@intrinsic
+def call_compiled(typingctx, address, fn, args):
+    """``fn(*args)`` (``fn`` a Numba dispatcher, ``args`` a tuple) through ``address``, the
+    entry of ``fn``'s code for these argument types (``compiled_address``), without linking
+    that code into the caller. Literal arguments count as their plain types, as
+    ``compiled_address`` sees them."""
+    if not isinstance(address, types.Integer) or not isinstance(fn, types.Dispatcher):
+        return None
+    argtys = tuple(types.unliteral(t) for t in args.types)
+    restype = typingctx.resolve_function_type(fn, argtys, {}).return_type
+
+    def codegen(context, builder, signature, llargs):
+        values = cgutils.unpack_tuple(builder, llargs[2], len(argtys))
+        values = [context.cast(builder, v, t, u)
+                  for v, t, u in zip(values, args.types, argtys)]
+        fnty = context.call_conv.get_function_type(restype, argtys)
+        callee = builder.inttoptr(llargs[0], fnty.as_pointer())
+        status, out = context.call_conv.call_function(builder, callee, restype, argtys,
+                                                      values)
+        with cgutils.if_unlikely(builder, status.is_error):
+            context.call_conv.return_status_propagate(builder, status)
+        return out
+    return restype(address, fn, args), codegen
+
+
+def compiled_address(dispatcher, argtypes):
+    """The address of ``dispatcher``'s compiled code for the Numba types ``argtypes``
+    (compiled now if it is not yet): what ``call_compiled`` takes. Valid while the
+    process lives."""
+    sig = tuple(argtypes)
+    if sig not in dispatcher.overloads:
+        dispatcher.compile(sig)
+    cres = dispatcher.overloads[sig]
+    return cres.library.get_pointer_to_function(cres.fndesc.llvm_func_name)

@@ -108,7 +108,7 @@ def test_stepping_a_free_body_does_not_load_the_full_step():
             "from tumble.pipeline import call, parallel, step_free\n"
             "w = racket.build()\n"
             "w.step(10)\n"
-            "print(len(call.step_boxed.signatures), len(parallel.step_boxed_parallel.signatures),"
+            "print(len(call.step_span.signatures), len(parallel.step_boxed_parallel.signatures),"
             " len(step_free.step_free_boxed.signatures))\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          env=dict(os.environ), timeout=600)

@@ -1,20 +1,22 @@
 """How ``World.step`` enters compiled code: the checks, the step and what surrounds it.
 
-``step_checked`` is the whole compiled part of a serial ``World.step``: save the state,
-controls and contacts (``save_inputs``, into the scratch memory: no allocation), check
-the state and the drive inputs (``checks.py``), hold static bodies still, feed MJCF
-position actuators' controls to their joint servos (``prepare_inputs``), step
-(``step.step_worlds``), then clear the applied forces -- or, if anything failed, restore
-all it saved (``restore_inputs``), so a failed call leaves the world as it was: every
-state and control array bit for bit, and each world's live contacts (those below its
-contact count; the slots past it are scratch). ``parallel.step_checked_parallel`` does
-the same with each world's saving, checks and step on a thread.
+``step_span`` is the whole compiled part of a ``World.step`` for a run of worlds: save
+the state, controls and contacts (``save_inputs``, into the scratch memory: no
+allocation), check the state and the drive inputs (``checks.py``), hold static bodies
+still, feed MJCF position actuators' controls to their joint servos (``prepare_inputs``),
+step (``step.step_worlds``), then clear the applied forces -- or, if anything failed,
+restore all it saved (``restore_inputs``), so a failed call leaves the world as it was:
+every state and control array bit for bit, and each world's live contacts (those below
+its contact count; the slots past it are scratch). A serial step calls it once for all
+the worlds; ``parallel.step_boxed_parallel`` calls it on each thread for a span of
+worlds and gives the verdict, clearing or restoring, itself.
 
 Each array handed from Python to compiled code costs a record of its shape and data and a
 reference (for the step's ~210 arrays, 5.6 us of a ``world.step(1)`` call's 25 us, on the
-ragdoll). So the serial path hands over one box holding them all (``_jit.ArgBox``)
-(``box_step_args``), made once and kept by ``World`` while none of its arrays is replaced,
-and calls ``step_boxed`` through its compiled entry point (``_jit.ENTRY_POINTS``).
+ragdoll). So the arrays cross over in one box (``_jit.ArgBox``, ``box_step_args``),
+made once and kept by ``World`` while none of its arrays is replaced, and ``step_span``
+is called through its compiled entry point (``_jit.ENTRY_POINTS``). The same compiled
+``step_span`` serves the serial and the batched step (a box per span of worlds).
 """
 import numpy as np
 from numba import njit
@@ -25,7 +27,7 @@ from .checks import DRIVE_OK, STATE_OK, check_drives, check_state
 from .step import STEP_OK, step_worlds
 from .work import work_fits
 
-# What step_checked reports in its first field.
+# What step_span reports in its first field.
 CALL_STEPPED, CALL_BAD_STATE, CALL_BAD_DRIVE, CALL_NEW_WORK = 0, 1, 2, 3
 
 
@@ -77,30 +79,39 @@ def prepare_inputs(m, s, c, ball):
     return CALL_STEPPED, 0, -1, -1
 
 
-@njit(cache=True, inline="always")
-def step_checked(m, s, c, con, pairs, n, o, ball, work):
-    """The whole of a serial ``World.step`` that runs compiled: checks (``ball``
-    (njoint,) bool marks ball joints, whose targets must not be zero), the step with the
-    scratch memory ``work``, the applied loads cleared once it has stepped; on a failure
-    every state and control array and the live contacts restored as they came in.
+@njit(cache=True)
+def step_span(box, n, o, alone):
+    """Check and step the worlds of the arrays in ``box`` (``box_step_args``: the model,
+    state, controls and contacts -- of a whole batch, or views of a span of its worlds --
+    a pair buffer, the ball-joint marks and scratch made for those worlds) ``n`` times.
+    ``alone``: the box is the whole call (the serial step: it clears the applied loads
+    once stepped, or restores everything on a failure); otherwise a thread's span of a
+    batch (the caller gives the verdict, clears and restores).
 
-    Returns (stage, code, world, index, step, needed): stage CALL_BAD_STATE or
-    CALL_BAD_DRIVE with the check's (code, world, body or joint) and nothing changed;
-    CALL_NEW_WORK when ``work`` does not fit (make it anew and call again); CALL_STEPPED
-    with step_worlds' (status, world, body in index, step, needed).
+    Returns (stage, code, world, index, step, needed), worlds numbered in the box: stage
+    CALL_BAD_STATE or CALL_BAD_DRIVE with the check's (code, world, body or joint) and
+    nothing changed; CALL_NEW_WORK when the scratch does not fit (make it anew and call
+    again); CALL_STEPPED with step_worlds' (status, world, body in index, step, needed).
+
+    The saving, checks and preparation are inlined here (Numba IR): a call would count a
+    reference to each of its ~210 arrays on the way in and out (5 us). ``step_worlds`` is
+    not: inlined, its loop ran 1.5 us a step slower.
     """
+    m, s, c, con, pairs, ball, work = box.args
     if not work_fits(work, m, s, c, con, o):
         return CALL_NEW_WORK, 0, -1, -1, -1, np.int64(0)
     save_inputs(s, c, con, work.saved)
     stage, code, w, i = prepare_inputs(m, s, c, ball)
     if stage != CALL_STEPPED:
-        restore_inputs(s, c, con, work.saved)
+        if alone:
+            restore_inputs(s, c, con, work.saved)
         return stage, code, w, i, -1, np.int64(0)
     status, fw, fk, fb, needed = step_worlds(m, s, c, con, pairs, n, o, work)
-    if status == STEP_OK:
-        clear_applied(c)
-    else:
-        restore_inputs(s, c, con, work.saved)
+    if alone:
+        if status == STEP_OK:
+            clear_applied(c)
+        else:
+            restore_inputs(s, c, con, work.saved)
     return CALL_STEPPED, status, fw, fb, fk, needed
 
 
@@ -126,7 +137,9 @@ def restore_inputs(s, c, con, saved):
 @njit(cache=True, inline="always")
 def _copy_controls(dst, src):
     """The four control arrays a call writes, from ``src`` into ``dst`` (namedtuples
-    holding them under the controls' names)."""
+    holding them under the controls' names). Written out: the four kept as a tuple in
+    ``Saved`` and copied by ``_jit.assign_arrays`` measured 2 us slower a call (of 14.5
+    us for the ragdoll's ``step(0)``)."""
     for a, b in ((dst.pd_target_quat, src.pd_target_quat),
                  (dst.body_target_quat, src.body_target_quat)):
         for w in range(a.shape[0]):
@@ -142,17 +155,7 @@ def _copy_controls(dst, src):
 
 @njit(cache=True)
 def box_step_args(m, s, c, con, pairs, ball, work):
-    """The arrays ``step_checked`` takes, the tuple (m, s, c, con, pairs, ball, work), in
-    one ``ArgBox`` for ``step_boxed``: it crosses over as one object and holds the very
-    same arrays (writes on either side are seen by the other)."""
+    """What ``step_span`` takes, the tuple (m, s, c, con, pairs, ball, work), in one
+    ``ArgBox``: it crosses over as one object and holds the very same arrays (writes on
+    either side are seen by the other)."""
     return ArgBox((m, s, c, con, pairs, ball, work))
-
-
-@njit(cache=True)
-def step_boxed(box, n, o):
-    """``step_checked`` on the arrays held by ``box`` (``box_step_args``). ``step_checked``
-    is inlined here (Numba IR): a call would count a reference to each of its ~210 arrays
-    on the way in and out (5 us). ``step_worlds`` is not: inlined, its loop ran 1.5 us a
-    step slower."""
-    m, s, c, con, pairs, ball, work = box.args
-    return step_checked(m, s, c, con, pairs, n, o, ball, work)

@@ -4,14 +4,14 @@ A model without joints, actuators or a second geom, whose bodies have no servo o
 only three of the step's stages (``step.py``): forces, integration and the divergence
 check. ``step_free_worlds`` runs those, the same kernels in the same order, so its results
 are bit for bit the full step's; ``step_free_checked`` wraps it in the same checks and
-rollback as ``call.step_checked``. What it saves is the first run's compile: these few
+rollback as ``call.step_span``. What it saves is the first run's compile: these few
 kernels take seconds to compile where the whole pipeline takes minutes (a spinning
 body, a projectile, a tumbling satellite: the demo).
 """
 import numpy as np
 from numba import njit
 
-from .._jit import ArgBox, world_of
+from .._jit import ArgBox, assign_arrays, copy_arrays, world_of
 from .arrays import (STAGE_CHECK, STAGE_COLLIDE, STAGE_COORDINATES, STAGE_FORCES,
                      STAGE_INTEGRATE_POSITIONS, STAGE_INTEGRATE_VELOCITIES, STAGE_PROJECT)
 from .call import CALL_STEPPED, clear_applied, prepare_inputs
@@ -57,50 +57,36 @@ def step_free_worlds(m, s, c, n, o):
 
 
 @njit(cache=True, inline="always")
-def _restore(dst, src):
-    """``dst[...] = src`` for C-contiguous arrays of one shape, as a plain loop (the
-    broadcasting assignment compiles its shape checks and messages: seconds)."""
-    d, a = dst.reshape(-1), src.reshape(-1)
-    for i in range(d.shape[0]):
-        d[i] = a[i]
-
-
-@njit(cache=True, inline="always")
-def _restore_saved(s, c, saved):
-    """Put back what ``step_free_checked`` saved."""
-    _restore(s.body_pos, saved[0])
-    _restore(s.body_quat, saved[1])
-    _restore(s.body_vel, saved[2])
-    _restore(s.body_angvel, saved[3])
-    _restore(s.stage_ticks, saved[4])
-    _restore(c.body_target_quat, saved[5])
+def _written(s, c):
+    """What a free step call may change, as a tuple of the arrays themselves: the bodies'
+    state and stage times, and the body servos' target rotations (the checks normalise
+    them); joints, contacts and actuators have no entries."""
+    return (s.body_pos, s.body_quat, s.body_vel, s.body_angvel, s.stage_ticks,
+            c.body_target_quat)
 
 
 @njit(cache=True, inline="always")
 def step_free_checked(m, s, c, n, o, ball):
-    """``call.step_checked`` around ``step_free_worlds``: the same checks, the same
-    rollback on a failure, the same (stage, code, world, index, step, needed) report
-    (never CALL_NEW_WORK: there is no scratch to outgrow). What a free step can change is
-    saved: the bodies' state and stage times, and the body servos' target rotations (the
-    checks normalise them); joints, contacts and actuators have no entries."""
-    saved = (s.body_pos.copy(), s.body_quat.copy(), s.body_vel.copy(), s.body_angvel.copy(),
-             s.stage_ticks.copy(), c.body_target_quat.copy())
+    """``call.step_span`` around ``step_free_worlds``: the same checks, the same
+    rollback on a failure (of what ``_written`` lists), the same (stage, code, world,
+    index, step, needed) report (never CALL_NEW_WORK: there is no scratch to outgrow)."""
+    saved = copy_arrays(_written(s, c))
     stage, code, w, i = prepare_inputs(m, s, c, ball)
     if stage != CALL_STEPPED:
-        _restore_saved(s, c, saved)
+        assign_arrays(_written(s, c), saved)
         return stage, code, w, i, -1, np.int64(0)
     status, fw, fk, fb = step_free_worlds(m, s, c, n, o)
     if status == STEP_OK:
         clear_applied(c)
     else:
-        _restore_saved(s, c, saved)
+        assign_arrays(_written(s, c), saved)
     return CALL_STEPPED, status, fw, fb, fk, np.int64(0)
 
 
 @njit(cache=True)
 def box_free_args(m, s, c, ball):
     """The arrays ``step_free_checked`` takes, in one ``ArgBox`` (see
-    ``call.box_step_args``: one object crosses into compiled code instead of ~90 arrays,
+    ``call.box_inputs``: one object crosses into compiled code instead of ~90 arrays,
     which halves a free body's ``step(1)`` call)."""
     return ArgBox((m, s, c, ball))
 

@@ -23,7 +23,8 @@ from ..pipeline.checks import (DRIVE_BAD_MAX, DRIVE_FIELDS, DRIVE_ZERO_BODY_QUAT
                                STATE_NONFINITE_VEL, STATE_ZERO_QUAT)
 from ..pipeline.contacts.arrays import make_contacts
 from ..pipeline.joints.rows import joint_coordinates
-from ..pipeline.parallel import box_parallel_args, make_world_works, step_boxed_parallel
+from ..pipeline.parallel import (box_parallel_args, make_spans, span_address, span_count,
+                                 step_boxed_parallel)
 from ..pipeline.step_free import box_free_args, is_free, step_free_boxed
 from ..pipeline.step import STEP_DIVERGED, STEP_MORE_CONTACTS, STEP_MORE_PAIRS
 from ..pipeline.work import make_step_work
@@ -49,14 +50,17 @@ _DRIVE_NAMES = {"motor_target": "joint_motor_target", "joint_applied": "joint to
 
 def _drops_box(attr):
     """A World property kept in ``attr`` whose assignment drops the step's boxes
-    (``World._box``, ``call.box_step_args``, and ``World._parallel_box``,
-    ``parallel.box_parallel_args``): a box holds the old object's arrays."""
+    (``World._box``, ``call.box_step_args``; ``World._parallel_box``,
+    ``parallel.box_parallel_args``; and the batch's spans, ``parallel.make_spans``, boxes
+    too): a box holds the old object's arrays."""
     def get(world):
         return getattr(world, attr)
 
     def put(world, value):
         setattr(world, attr, value)
         world._box = world._parallel_box = None
+        if attr != "_span_boxes":
+            world._span_boxes = None
     return property(get, put)
 
 
@@ -138,10 +142,12 @@ class World(StateMixin, ControlMixin, QueryMixin):
         self._pairs = np.zeros((_capacity(pair_capacity, default, "pair_capacity"), 2),
                                np.int32)
         self._work = None          # scratch of the serial step, kept between calls
-        self._works = None         # the parallel step's, one per world
+        self._spans = None         # the parallel step's boxes, one per span of worlds
+        self._nspan = 0            # how many spans _spans has (one per thread)
         self._parallel_box = None  # parallel.box_parallel_args of the arrays, once made
+        self._span_address = None  # call.step_span's compiled code, for the spans
         self._parallel_entry = None  # step_boxed_parallel's compiled entry point
-        self._entry = None         # step_boxed's compiled entry point, once called
+        self._entry = None         # step_span's compiled entry point, once called
         self._free_entry = None    # step_free_boxed's, once called (a free model)
         self._free_box = None      # step_free.box_free_args of the arrays, once made
         self._tick_seconds = None  # _jit.ticks' unit, measured on the first stage_times
@@ -152,21 +158,22 @@ class World(StateMixin, ControlMixin, QueryMixin):
     _contacts = _drops_box("_contacts_arrays")
     _pairs = _drops_box("_pairs_buffer")
     _work = _drops_box("_work_memory")
-    _works = _drops_box("_world_works")
+    _spans = _drops_box("_span_boxes")
 
     def _prepare_step(self):
         """The serial step's scratch memory and compiled entry point, made now when an
         earlier world of the process has compiled the step for the same argument types:
         the first ``step`` call then costs what the others do instead of a millisecond
         more. The first world of a process compiles the step on its first ``step``."""
-        if self.parallel or not compiled_any(call.step_boxed):
+        if self.parallel or not compiled_any(call.step_span):
             return
         o = self.step_options()
         work = self._make_work(o)
         box = self._make_box(work, compiled_only=True)
         if box is None:
             return
-        entry = ENTRY_POINTS.get(call.step_boxed, (box, 1, o), compiled_only=True)
+        entry = ENTRY_POINTS.get(call.step_span, self._serial_args(box, 1, o),
+                                 compiled_only=True)
         if entry is not None:
             self._work, self._box, self._entry = work, box, entry
 
@@ -369,7 +376,7 @@ class World(StateMixin, ControlMixin, QueryMixin):
             if stage == call.CALL_BAD_DRIVE:
                 raise self._drive_error(code, w, i)
             if stage == call.CALL_NEW_WORK:
-                self._work = self._works = None
+                self._work = self._spans = None
             elif not self._grew_buffers(code, needed):
                 break
         if code == STEP_DIVERGED:
@@ -388,29 +395,37 @@ class World(StateMixin, ControlMixin, QueryMixin):
         self.time = t
 
     def _call_serial(self, n, o):
-        """``call.step_boxed`` on the arrays held in ``self._box`` (one object to hand over
-        instead of ~210 arrays), straight through its compiled entry point once known:
-        Numba's dispatcher would spend more time matching types than a small world's
-        step. Returns step_checked's (stage, code, world, index, step, needed)."""
+        """``call.step_span`` over all the worlds, on the arrays held in ``self._box`` (one
+        object to hand over instead of ~210 arrays), straight through its compiled entry
+        point once known: Numba's dispatcher would spend more time matching types than a
+        small world's step. Returns step_span's (stage, code, world, index, step,
+        needed)."""
         if self._work is None:
             self._work = self._make_work(o)
         if self._box is None:
             self._box = self._make_box(self._work)
-        return self._through_entry("_entry", call.step_boxed, (self._box, n, o))
+        return self._through_entry("_entry", call.step_span, self._serial_args(self._box, n, o))
+
+    def _serial_args(self, box, n, o):
+        """``call.step_span``'s arguments for a serial step: all the worlds, alone."""
+        return (box, n, o, True)
 
     def _call_parallel(self, n, o):
-        """``parallel.step_boxed_parallel`` on the arrays and each world's scratch held in
+        """``parallel.step_boxed_parallel`` on the arrays and each span's scratch held in
         ``self._parallel_box``, through its compiled entry point once known (as
-        ``_call_serial``)."""
-        if self._works is None:
-            self._works = make_world_works(self.model.arrays, self._state, self._control,
-                                           self._contacts, o)
+        ``_call_serial``); each thread calls ``call.step_span`` for its span through the
+        address of its compiled code."""
+        nspan = span_count(self.nworld)
+        if self._spans is None or nspan != self._nspan:
+            self._spans = make_spans(self.model.arrays, self._state, self._control,
+                                     self._contacts, self._pairs, self._ball_joints, o, nspan)
+            self._nspan = nspan
         if self._parallel_box is None:
-            self._parallel_box = box_parallel_args(
-                self.model.arrays, self._state, self._control, self._contacts, self._pairs,
-                self._ball_joints, self._works)
+            self._parallel_box = box_parallel_args(self._state, self._control, self._contacts,
+                                                   self._spans)
+            self._span_address = span_address(self._spans, o)
         return self._through_entry("_parallel_entry", step_boxed_parallel,
-                                   (self._parallel_box, n, o))
+                                   (self._parallel_box, n, o, self._span_address))
 
     def _call_free(self, n, o):
         """``step_free.step_free_boxed`` (a model with nothing to collide, constrain or
