@@ -20,18 +20,8 @@ _ROOT = str(Path(__file__).resolve().parents[1])
 os.environ["PYTHONPATH"] = os.pathsep.join(
     [_ROOT] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p and p != _ROOT])
 
-# Runs first: many tests, the first of which compiles the serial step, then the batched one.
+# Runs first: many tests, the first of which compiles the step.
 FIRST = "tests/world/test_world.py"
-
-# Files whose tests compile the same large kernel (the batched, threaded step) run on one
-# worker, so that the second finds it in the cache instead of compiling it alongside.
-SHARED_WORKER = {
-    "tests/world/test_world.py": "batched-step",
-    "tests/pipeline/test_parallel.py": "batched-step",
-    "tests/rl/test_imitation.py": "batched-step",
-    "tests/rl/test_gym.py": "batched-step",
-    "tests/rl/test_train.py": "batched-step",
-}
 
 # Files that never step a world (kernels, parsers, the viewer on recordings), longest first.
 STEP_FREE = [
@@ -48,7 +38,6 @@ STEP_FREE = [
     "tests/math/test_quat_np.py",
     "tests/bench/test_bench_ode.py",
     "tests/test_cache.py",
-    "tests/viewer/test_examples.py",
     "tests/rl/test_reference.py",
     "tests/rl/test_policy.py",
     "tests/io/test_fuzz_mjcf.py",
@@ -62,17 +51,19 @@ STEP_FREE = [
 ]
 
 
-# First, so that the marks are on the items when pytest-xdist's own hook turns them into
-# groups (without it, xdist ran first and the groups were never formed).
-@pytest.hookimpl(tryfirst=True)
+def pytest_itemcollected(item):
+    """One xdist group per test file: its kernels compile once. Marked as each item is
+    collected, before pytest-xdist's ``collection_modifyitems`` turns the marks into
+    groups. (The batched step's files used to share one worker too, when that step took
+    two minutes more to compile than the serial one; it now takes seconds.)"""
+    item.add_marker(pytest.mark.xdist_group(item.nodeid.split("::")[0]))
+
+
 def pytest_collection_modifyitems(config, items):
-    """One xdist group per test file (its kernels compile once), ``SHARED_WORKER`` files in
-    one group; files ordered ``FIRST``, then ``STEP_FREE``, then the rest as collected."""
+    """Files ordered ``FIRST``, then ``STEP_FREE``, then the rest as collected."""
     by_file = {}
     for item in items:
-        path = item.nodeid.split("::")[0]
-        item.add_marker(pytest.mark.xdist_group(SHARED_WORKER.get(path, path)))
-        by_file.setdefault(path, []).append(item)
+        by_file.setdefault(item.nodeid.split("::")[0], []).append(item)
     rank = {path: i + 1 for i, path in enumerate(STEP_FREE)}
     rank[FIRST] = 0
     files = sorted(by_file, key=lambda path: rank.get(path, len(rank) + 1))   # stable
