@@ -86,7 +86,7 @@ def step_free_checked(m, s, c, n, o, ball):
 @njit(cache=True)
 def box_free_args(m, s, c, ball):
     """The arrays ``step_free_checked`` takes, in one ``ArgBox`` (see
-    ``call.box_inputs``: one object crosses into compiled code instead of ~90 arrays,
+    ``call.box_step_args``: one object crosses into compiled code instead of ~90 arrays,
     which halves a free body's ``step(1)`` call)."""
     return ArgBox((m, s, c, ball))
 
