@@ -179,12 +179,12 @@ def _worlds_view(t, w0, w1):
 
 @overload(copy_arrays)
 def _copy_arrays(t):
-    fields = "".join(f"t[{i}].copy(), " for i in range(len(getattr(t, "types", ()))))
+    if not isinstance(t, types.BaseTuple):
+        return None
+    fields = "".join(f"t[{i}].copy(), " for i in range(len(t.types)))
     if isinstance(t, types.BaseNamedTuple):
         return _generated("impl", "t", f"    return cls({fields})\n", t.instance_class)
-    if isinstance(t, types.BaseTuple):
-        return _generated("impl", "t", f"    return ({fields})\n")
-    return None
+    return _generated("impl", "t", f"    return ({fields})\n")
 
 
 def _copy_loops(i, ndim, bounds):

@@ -88,16 +88,9 @@ def _row_capacity(njrow, nservoed, nper, cap, o):
 def work_fits(work, m, s, c, con, o):
     """Whether ``work`` (make_step_work) still fits the state, controls, contacts and
     options."""
-    return (work.saved.state.body_pos.shape[0] == s.body_pos.shape[0]
-            and fits_world(work, m, s.row_impulse.shape[1], con.depth.shape[1], c.body_servo,
-                           o))
-
-
-@noalloc
-def fits_world(work, m, njrow, cap, body_servo, o):
-    """``work_fits`` from what it reads: the joint rows per world ``njrow``, the contact
-    capacity ``cap`` and the world's servo gains ``body_servo`` (1, nbody, 4), so a batch
-    checks each world's work without views of its every array (``parallel.py``)."""
+    if work.saved.state.body_pos.shape[0] != s.body_pos.shape[0]:
+        return False
+    njrow, cap, body_servo = s.row_impulse.shape[1], con.depth.shape[1], c.body_servo
     # the bodies with a servo, in order, must be those the rows were laid out for
     k = 0
     ns = work.servoed.shape[0]

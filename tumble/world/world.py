@@ -49,18 +49,15 @@ _DRIVE_NAMES = {"motor_target": "joint_motor_target", "joint_applied": "joint to
 
 
 def _drops_box(attr):
-    """A World property kept in ``attr`` whose assignment drops the step's boxes
-    (``World._box``, ``call.box_step_args``; ``World._parallel_box``,
-    ``parallel.box_parallel_args``; and the batch's spans, ``parallel.make_spans``, boxes
-    too): a box holds the old object's arrays."""
+    """A World property kept in ``attr`` whose assignment drops what holds the old object's
+    arrays: the step's box (``World._box``, ``call.box_step_args``), the batch's spans
+    (``World._spans``, ``parallel.make_spans``) and their box (``World._parallel_box``)."""
     def get(world):
         return getattr(world, attr)
 
     def put(world, value):
         setattr(world, attr, value)
-        world._box = world._parallel_box = None
-        if attr != "_span_boxes":
-            world._span_boxes = None
+        world._box = world._spans = world._parallel_box = None
     return property(get, put)
 
 
@@ -158,7 +155,6 @@ class World(StateMixin, ControlMixin, QueryMixin):
     _contacts = _drops_box("_contacts_arrays")
     _pairs = _drops_box("_pairs_buffer")
     _work = _drops_box("_work_memory")
-    _spans = _drops_box("_span_boxes")
 
     def _prepare_step(self):
         """The serial step's scratch memory and compiled entry point, made now when an
@@ -419,7 +415,7 @@ class World(StateMixin, ControlMixin, QueryMixin):
         if self._spans is None or nspan != self._nspan:
             self._spans = make_spans(self.model.arrays, self._state, self._control,
                                      self._contacts, self._pairs, self._ball_joints, o, nspan)
-            self._nspan = nspan
+            self._nspan, self._parallel_box = nspan, None      # the box held the old spans
         if self._parallel_box is None:
             self._parallel_box = box_parallel_args(self._state, self._control, self._contacts,
                                                    self._spans)
