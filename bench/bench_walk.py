@@ -206,7 +206,7 @@ def stride_speeds(c, r, settle, along=None):
             break
         seg = r.com[i:j + 1]
         T = b[0] - a[0]
-        if along == "path":
+        if isinstance(along, str) and along == "path":
             d = np.diff(seg[:, [0, 2]], axis=0)
             out.append(float(np.linalg.norm(d, axis=1).sum()) / T)
         else:

@@ -113,6 +113,40 @@ def test_controller_plans_the_pendulum_step_on_synthetic_states(ctrl):
         assert c.last_plan.target == pytest.approx(want.target, abs=1e-12)
 
 
+
+def test_pushed_steps_hurry_and_landed_knees_straighten_at_a_bounded_rate(ctrl):
+    """``hurry``: the step's duration is ``step_time - hurry (|v - command| - deadband)``,
+    at least ``min_step_time``, and the phase advances by control_dt over it. ``knee_rate``:
+    a stance knee that landed bent 1.2 rad straightens toward ``stance_knee`` over
+    ``max(knee_time, |bend| / knee_rate)`` s, along the same smoothstep."""
+    c = ctrl
+    base = c.gait
+    try:
+        c.gait = base.with_(hurry=0.2, hurry_deadband=0.3, min_step_time=0.25, knee_rate=1.0,
+                            knee_time=0.2)
+        s = c.gait
+        for off, want in ((0.1, s.step_time), (0.5, s.step_time - 0.2 * 0.2), (3.0, 0.25)):
+            c.place()
+            c.command[:] = (s.speed, 0.0)
+            c.world.body_vel[:] = (s.speed + off) * FWD
+            c.control()
+            assert c.step_duration == pytest.approx(want, abs=1e-12)
+            p0 = c.phase
+            c.phase_time = 0.0
+            c._update_fsm()
+            assert c.phase - p0 == pytest.approx(DT / want, abs=1e-12)
+        k = c.knee[c.stance]
+        sign = c.knee_sign[c.stance]
+        for t in (0.1, 0.4, 0.8, 1.2):
+            c.place()
+            c.strike_knee, c.phase_time = 1.2, t
+            c.control()
+            u = min(t / ((1.2 - s.stance_knee) / 1.0), 1.0)
+            want = 1.2 + u * u * (3 - 2 * u) * (s.stance_knee - 1.2)
+            assert sign * c.world.pd_target_q[k][0] == pytest.approx(want, abs=1e-9)
+    finally:
+        c.gait = base
+
 def test_swing_height_and_target():
     assert swing_height(0.0, 0.08, 0.01) == 0.0
     assert swing_height(0.5, 0.08, 0.01) == pytest.approx(0.08)

@@ -144,11 +144,20 @@ class Style:
     step_height : m, the swing ankle's lift at ``step_peak`` of the phase; landing : m,
         how far below the ground the trajectory ends (the foot looks for the ground);
         lift_phase : the part of the phase in which the foot rises before it moves
-        horizontally.
+        horizontally; swing_ease : 0..1, the horizontal path's blend from ``1 - (1 - u)^2``
+        (fastest at lift-off) toward a smoothstep (at rest at both ends).
     stance_knee_gains : (kp, kd) of the stance knee's servo, or null for the knee group's
         (the swing knee keeps those).
+    step_time_speed : s taken off ``step_time`` per m/s of the commanded speed (faster walks
+        take quicker steps, not only longer ones), down to ``min_step_time``.
+    hurry : s taken off the step's duration per m/s of the COM's horizontal velocity error
+        (from the command) beyond ``hurry_deadband`` m/s (the sway of a normal walk), down to
+        ``min_step_time`` s: a pushed character steps sooner, as people do, instead of
+        waiting out a step it cannot stop in (0: fixed timing).
     knee_time : s over which the stance knee's target goes from the knee's bend at the
-        strike to ``stance_knee``.
+        strike to ``stance_knee``; knee_rate : rad/s, the fastest it goes there (a leg that
+        lands deeply bent straightens over more than ``knee_time`` instead of launching
+        the body; 0: no bound).
     stance_knee, swing_ankle, stance_ankle : knee flexion (rad) of the stance leg; ankle
         dorsiflexion of the swing foot relative to level in the heading frame (tilted with
         the ground's slope) and of the stance foot relative to its shank (or, with
@@ -199,6 +208,12 @@ class Style:
     lift_phase: float = 0.1
     stance_knee: float = 0.1
     knee_time: float = 0.0
+    knee_rate: float = 0.0
+    swing_ease: float = 0.0
+    step_time_speed: float = 0.0
+    hurry: float = 0.0
+    hurry_deadband: float = 0.3
+    min_step_time: float = 0.25
     stance_knee_gains: tuple = None
     swing_ankle: float = 0.0
     stance_ankle: float = 0.0
@@ -440,7 +455,7 @@ _STYLE_NUMBERS = {
     "step_time": (0.1, 2.0), "min_phase": (0.0, 1.0), "max_phase": (0.5, 5.0), "strike_load": (0.0, 2.0),
     "step_width": (-0.5, 0.5), "min_step_width": (-0.5, 0.5), "foot_center": (-0.3, 0.3), "cop_margin": (0.0, 0.1),
     "predict": (0.0, 1.0), "freeze_phase": (0.0, 5.0), "reach": (0.0, 1.0), "step_height": (0.0, 0.5), "step_peak": (0.05, 0.95), "landing": (0.0, 0.3), "lift_phase": (0.0, 0.9),
-    "stance_knee": (-0.5, 2.8), "knee_time": (0.0, 2.0), "swing_ankle": (-1.5, 1.5), "stance_ankle": (-1.5, 1.5),
+    "stance_knee": (-0.5, 2.8), "knee_time": (0.0, 2.0), "knee_rate": (0.0, 100.0), "swing_ease": (0.0, 1.0), "step_time_speed": (-1.0, 1.0), "hurry": (0.0, 2.0), "hurry_deadband": (0.0, 5.0), "min_step_time": (0.05, 2.0), "swing_ankle": (-1.5, 1.5), "stance_ankle": (-1.5, 1.5),
     "lean_speed": (-2.0, 2.0), "slope_lean": (-5.0, 5.0), "gravity_compensation": (0.0, 2.0), "knee_support": (0.0, 2.0), "height_drop": (-0.5, 0.5),
     "speed_gain": (0.0, 2.0), "side_gain": (0.0, 2.0), "speed_limit": (0.0, 1.0),
     "accel": (0.01, 100.0)}

@@ -177,6 +177,7 @@ class GeneralizedController(SimbiconController):
         """Back to the first step, right leg in stance, heading from the pelvis."""
         super().reset()
         self.phase = 0.0
+        self.step_duration = self.gait.step_time
         self.adjust = np.zeros(2)
         self.command = np.zeros(2)
         swing = 1 - self.stance
@@ -269,7 +270,7 @@ class GeneralizedController(SimbiconController):
     def _update_fsm(self):
         s = self.gait
         self.phase_time += self.control_dt
-        self.phase = self.phase_time / s.step_time
+        self.phase += self.control_dt / self.step_duration
         if ((self.phase >= s.min_phase and self._foot_on_ground(1 - self.stance))
                 or self.phase >= s.max_phase):
             self._switch_stance()
@@ -316,7 +317,7 @@ class GeneralizedController(SimbiconController):
         target = swing_target(phase, self.swing_start, plan.target, height=s.step_height,
                               landing=s.landing, ground_start=self.swing_start_ground,
                               ground_step=ground, up=self.up, ankle_height=self.ankle_height,
-                              peak=s.step_peak, lift=s.lift_phase)
+                              peak=s.step_peak, lift=s.lift_phase, ease=s.swing_ease)
         # the whole path, not only the landing, stays min_step_width outward of the stance
         # ankle: the swing foot does not strike the stance leg on its way
         out = swing_sign * left
@@ -334,7 +335,7 @@ class GeneralizedController(SimbiconController):
         s = self.gait
         if s.predict > 0.0:
             # the COM where it will be at the end of the step, moving on at its velocity
-            tau = s.predict * max(1.0 - phase, 0.0) * s.step_time
+            tau = s.predict * max(1.0 - phase, 0.0) * self.step_duration
             vh = vcom - (vcom @ self.up) * self.up
             com = com + tau * vh
         plan = plan_step(com, vcom, stance_ankle, fwd, left, self.up, swing_sign, h=h,
@@ -403,8 +404,13 @@ class GeneralizedController(SimbiconController):
         slope = math.atan(self.terrain.slope_along(ankle[0], ankle[2], (fwd[0], fwd[2])))
         self.slope = slope
         h = float((com - ankle) @ up) + self.ankle_height
-        phase = self.phase_time / s.step_time
-        self.phase = phase
+        # the step's duration: shorter at a faster command, and the further the COM's
+        # velocity is off the command
+        v_off = float(np.linalg.norm(self.command - np.array([vcom @ fwd, vcom @ left])))
+        base = s.step_time - s.step_time_speed * abs(float(self.command[0]))
+        self.step_duration = max(base - s.hurry * max(v_off - s.hurry_deadband, 0.0),
+                                 min(s.min_step_time, s.step_time))
+        phase = self.phase
         # the commanded velocity, reached at a bounded acceleration
         goal = np.array([s.speed, s.side_speed])
         dv = goal - self.command
@@ -433,7 +439,8 @@ class GeneralizedController(SimbiconController):
         for ahead in (self.control_dt, self.control_dt + _PREDICT):
             fwd_a = Q.qrot_one(self._yaw_quat(self.heading + s.turn_rate * ahead), self.fwd0)
             _, tg = self._swing_ankle_target(com + ahead * vcom, vcom, ankle, fwd, left,
-                                             phase + ahead / s.step_time, h, sgn_sw, frozen)
+                                             phase + ahead / self.step_duration, h, sgn_sw,
+                                             frozen)
             hip_a = hip + ahead * v_hip
             if s.reach > 0.0:
                 tg, _ = reachable_target(hip_a, tg, s.reach * (self.l1 + self.l2), up)
@@ -443,7 +450,7 @@ class GeneralizedController(SimbiconController):
         R_thd = R_ths[0]
         w_thigh = Q.qrotvec(Q.qmul_one(R_ths[1], Q.qconj_one(R_thd))) / _PREDICT
         flex = iks[0].flex
-        knee_rate = (iks[1].flex - flex) / _PREDICT
+        swing_knee_rate = (iks[1].flex - flex) / _PREDICT
         self.last_plan, self.last_target, self.last_ik = plan, target, ik
         self._ahead_ankle = iks[0].ankle
         # ---- targets
@@ -458,9 +465,13 @@ class GeneralizedController(SimbiconController):
         R[hw] = Q.qmul_one(Q.qconj_one(R_p), R_thd)
         R[self.knee[swing]] = Q.qaxis_angle_one(self.left0, flex)
         # the stance knee goes from its bend at the strike to the style's over knee_time s
+        # (at most knee_rate rad/s)
         # (straightening a bent landing leg at once would throw the body up)
         k0 = self.strike_knee
-        u = min(self.phase_time / s.knee_time, 1.0) if s.knee_time > 0 else 1.0
+        t_knee = s.knee_time
+        if s.knee_rate > 0.0:
+            t_knee = max(t_knee, abs(s.stance_knee - k0) / s.knee_rate)
+        u = min(self.phase_time / t_knee, 1.0) if t_knee > 0 else 1.0
         u = u * u * (3.0 - 2.0 * u)
         knee_st = k0 + u * (s.stance_knee - k0)
         R[self.knee[stance]] = Q.qaxis_angle_one(self.left0, knee_st)
@@ -470,7 +481,7 @@ class GeneralizedController(SimbiconController):
         fa = Q.qmul(w.body_quat[m.joint_parent[[hs, hw]]], m.joint_frame_a[[hs, hw]])
         rates[hs] = Q.qrot_one(Q.qconj_one(fa[0]), w.body_angvel[th_st] - yaw_rate)
         rates[hw] = Q.qrot_one(Q.qconj_one(fa[1]), w_thigh - w_p)
-        rates[self.knee[swing], 0] = self.knee_sign[swing] * knee_rate
+        rates[self.knee[swing], 0] = self.knee_sign[swing] * swing_knee_rate
         # feet level in the heading frame, tilted with the slope, dorsiflexed by the style:
         # the swing foot relative to the shank its leg's targets give, the stance foot to
         # the present shank; the rate target damps the foot's world angular velocity

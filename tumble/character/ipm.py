@@ -137,7 +137,7 @@ def swing_height(phase, height, landing=0.0, peak=0.5):
 
 
 def swing_target(phase, start, step, *, height, landing, ground_start, ground_step,
-                 up, ankle_height, peak=0.5, lift=0.0):
+                 up, ankle_height, peak=0.5, lift=0.0, ease=0.0):
     """World position (3,) of the swing ankle at ``phase`` of the step.
 
     start : the swing ankle where it lifted off (3,); step : the planned landing point,
@@ -145,13 +145,16 @@ def swing_target(phase, start, step, *, height, landing, ground_start, ground_st
     (m along up) under them; ankle_height : the ankle's height above the sole. The
     horizontal position blends with ``s = 1 - (1 - u)^2``, ``u`` the phase after ``lift``
     rescaled to 0..1 (the foot first rises, then moves fast and homes in on a step that is
-    still being replanned); the ground
+    still being replanned), blended by ``ease`` (0..1) toward the smoothstep
+    ``3 u^2 - 2 u^3``, which starts and ends at rest (a swing leg thrown forward at lift-off
+    takes its reaction from the stance hip, which pushes the stance foot back and the body
+    forward); the ground
     line moves from the start's ground to the step's (a rise by ``peak``, a drop after it),
     and ``swing_height`` is added above it.
     """
     p = min(max(phase, 0.0), 1.0)
     u = min(max((p - lift) / (1.0 - lift), 0.0), 1.0) if lift < 1.0 else 1.0
-    s = 1.0 - (1.0 - u) ** 2
+    s = (1.0 - ease) * (1.0 - (1.0 - u) ** 2) + ease * u * u * (3.0 - 2.0 * u)
     start_h = start - (start @ up) * up
     horiz = start_h + s * (step - start_h)
     # the ground line: a rise is reached by mid-swing (the foot clears the edge on its way

@@ -1,0 +1,220 @@
+"""Search a generalized-walking style's parameters for push survival with CMA-ES.
+
+    pip install cma                       # or: pip install -e ".[tune]"
+    python bench/tune_walk.py --out runs/tune-ipm --workers 2            # runs until stopped
+    python bench/tune_walk.py --out runs/tune-ipm --workers 2            # resumes
+    python bench/tune_walk.py --out runs/tune-ipm --write-best my.json   # the best as a style
+
+A candidate first walks at each of ``--speeds`` (m/s) from standing for ``--speed-time``
+s: each walked without a fall scores 2/3 of ``--speed-weight``, and the other third if its
+speed over the last 3 s is within 0.1 m/s of the command. Then it walks from standing for ``--settle`` s at its commanded speed (a fall scores
+nothing), then takes 0.2 s chest pushes of each of ``--forces`` N in the 8 directions of
+bench_walk.py at ``--phases`` push times over a stride (not the bench's 8, so the bench's
+figure is not the one searched on): each push survived for ``--watch`` s scores 1 (once
+per force). The parameters searched and their ranges are
+``SPACE``; CMA-ES works on them scaled to 0..1 from the starting style's values.
+
+The search state (``es.pkl``), every candidate's score (``log.jsonl``) and the best style
+so far (``best.json``) are written to ``--out`` after each generation, so a run resumes
+where it stopped. Scores are noisy (walking is chaotic: a push 1/60 s later can change the
+outcome), so check a winner with ``bench_walk.py survival`` and the walking tests.
+"""
+import argparse
+import json
+import math
+import multiprocessing as mp
+import os
+import pickle
+import sys
+import time
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+sys.path.insert(0, os.path.join(HERE, "..", "examples"))
+
+# (field, index in a pair field or None, low, high): the searched parameters
+SPACE = [
+    ("step_time", None, 0.30, 0.50), ("min_phase", None, 0.4, 0.8),
+    ("ipm_scale", 0, 0.8, 1.3), ("ipm_scale", 1, 0.8, 1.8), ("alpha", 0, 0.0, 0.2),
+    ("step_width", None, 0.0, 0.1), ("min_step_width", None, 0.08, 0.16),
+    ("max_step", 0, 0.35, 0.65), ("max_step", 1, 0.2, 0.5), ("freeze_phase", None, 0.6, 1.0),
+    ("step_height", None, 0.06, 0.16), ("stance_knee", None, 0.0, 0.3),
+    ("knee_time", None, 0.1, 0.5), ("knee_rate", None, 0.3, 4.0),
+    ("knee_support", None, 0.2, 0.9), ("height_gain", 0, 0.0, 4000.0),
+    ("height_gain", 1, 0.0, 600.0), ("velocity_gain", 0, 0.0, 200.0),
+    ("velocity_gain", 1, 0.0, 300.0), ("max_force", 0, 50.0, 300.0),
+    ("max_force", 1, 50.0, 300.0), ("torso", 0, -0.05, 0.15), ("hurry", None, 0.0, 0.4),
+    ("hurry_deadband", None, 0.1, 1.0), ("min_step_time", None, 0.2, 0.35),
+    ("swing_ease", None, 0.0, 1.0), ("step_time_speed", None, 0.0, 0.15),
+    ("predict", None, 0.0, 0.6), ("lift_phase", None, 0.0, 0.2),
+    ("speed_limit", None, 0.1, 0.4), ("speed_gain", None, 0.005, 0.08),
+]
+GAIN_SCALES = [("hip", 0.5, 1.5), ("torso", 0.5, 1.5), ("stance_knee", 0.4, 2.0)]
+
+
+def _value(style, field, index):
+    v = getattr(style, field)
+    return float(v if index is None else v[index])
+
+
+def decode(style, x):
+    """The style (a Style) of the 0..1 vector ``x`` (SPACE, then GAIN_SCALES)."""
+    changes = {}
+    for (field, index, lo, hi), u in zip(SPACE, x):
+        v = lo + float(np.clip(u, 0.0, 1.0)) * (hi - lo)
+        if index is None:
+            changes[field] = v
+        else:
+            pair = list(changes.get(field, getattr(style, field)))
+            pair[index] = v
+            changes[field] = tuple(pair)
+    gains = dict(style.gains)
+    tail = x[len(SPACE):]
+    for (group, lo, hi), u in zip(GAIN_SCALES, tail):
+        k = lo + float(np.clip(u, 0.0, 1.0)) * (hi - lo)
+        if group == "stance_knee":
+            base = style.stance_knee_gains or gains["knee"]
+            changes["stance_knee_gains"] = (base[0] * k, base[1] * k)
+        else:
+            gains[group] = (gains[group][0] * k, gains[group][1] * k)
+    changes["gains"] = gains
+    changes["min_phase"] = min(changes["min_phase"], style.max_phase - 0.05)
+    return style.with_(**changes)
+
+
+def encode(style):
+    """The 0..1 vector of ``style`` (gain scales at 1)."""
+    x = [(_value(style, f, i) - lo) / (hi - lo) for f, i, lo, hi in SPACE]
+    x += [(1.0 - lo) / (hi - lo) for _, lo, hi in GAIN_SCALES]
+    return np.clip(np.array(x), 0.0, 1.0)
+
+
+def style_dict(style):
+    """``style`` as the fields of a style file."""
+    out = {"controller": "generalized"}
+    for k, v in vars(style).items():
+        if k == "max_torque":
+            v = {g: t for g, t in v.items() if math.isfinite(t)}
+            if not v:
+                continue
+        out[k] = list(v) if isinstance(v, tuple) else v
+    out["gains"] = {g: list(p) for g, p in style.gains.items()}
+    return out
+
+
+def score(style, opts):
+    """Pushes survived plus ``--speed-weight`` for each commanded speed walked (see the
+    module docs), and the seconds it took."""
+    import bench_walk as B
+    from tumble.character.generalized import make_generalized
+    from tumble.character.walk import run_walk
+    t0 = time.perf_counter()
+    walked = 0
+    for v in opts["speeds"]:
+        c = make_generalized(style.with_(speed=v))
+        r = run_walk(c, opts["speed_time"], settle=opts["speed_time"] - 3.0)
+        if not r.fallen:
+            walked += 2.0 / 3.0 + (1.0 / 3.0 if abs(r.speed - v) <= 0.1 else 0.0)
+    args = argparse.Namespace(phases=opts["phases"], settle=opts["settle"], push_time=0.2,
+                              watch=opts["watch"])
+    try:
+        got = B.push_snapshots(lambda: make_generalized(style), args)
+    except Exception as e:                      # a style the controller cannot walk
+        print(f"candidate failed: {e!r}", file=sys.stderr)
+        return 0, time.perf_counter() - t0
+    if got is None:
+        return walked * opts["speed_weight"], time.perf_counter() - t0
+    c, snaps = got
+    n = 0
+    for d in B.DIRECTIONS.values():
+        for f in opts["forces"]:
+            n += sum(B._survives(c, s, f * np.asarray(d), args) for s in snaps)
+    return n + walked * opts["speed_weight"], time.perf_counter() - t0
+
+
+def _job(payload):
+    x, opts = payload
+    from tumble.character.generalized import load_style
+    base = load_style(opts["style"])
+    return score(decode(base, np.asarray(x)), opts)
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--out", required=True, help="folder of the search state and logs")
+    p.add_argument("--style", default="ipm_walk", help="starting style (name or JSON path)")
+    p.add_argument("--forces", default="200,300,350")
+    p.add_argument("--phases", type=int, default=5)
+    p.add_argument("--settle", type=float, default=6.0)
+    p.add_argument("--watch", type=float, default=5.0)
+    p.add_argument("--speeds", default="-0.5,1.0,1.5",
+                   help="m/s: commanded speeds each walked for --speed-time s")
+    p.add_argument("--speed-time", type=float, default=20.0)
+    p.add_argument("--speed-weight", type=float, default=30.0,
+                   help="score of each speed walked without a fall (2/3 of it) and within 0.1 m/s "
+                        "over its last 3 s (1/3)")
+    p.add_argument("--sigma", type=float, default=0.12, help="CMA-ES step in 0..1 units")
+    p.add_argument("--popsize", type=int, default=12)
+    p.add_argument("--workers", type=int, default=2)
+    p.add_argument("--generations", type=int, default=1000)
+    p.add_argument("--write-best", help="write the best style found to this JSON file and stop")
+    a = p.parse_args()
+    os.makedirs(a.out, exist_ok=True)
+    from tumble.character.generalized import load_style
+    base = load_style(a.style)
+    best_path = os.path.join(a.out, "best.json")
+    if a.write_best:
+        with open(best_path) as f:
+            best = json.load(f)
+        style = decode(base, np.array(best["x"]))
+        with open(a.write_best, "w") as f:
+            json.dump(style_dict(style), f, indent=2)
+        print(f"wrote {a.write_best}: score {best['score']}/{best['of']}")
+        return
+    import cma
+    opts = {"style": a.style, "forces": [float(f) for f in a.forces.split(",")],
+            "phases": a.phases, "settle": a.settle, "watch": a.watch,
+            "speeds": [float(v) for v in a.speeds.split(",")] if a.speeds else [],
+            "speed_time": a.speed_time, "speed_weight": a.speed_weight}
+    of = len(opts["forces"]) * a.phases * 8 + len(opts["speeds"]) * a.speed_weight
+    state = os.path.join(a.out, "es.pkl")
+    if os.path.exists(state):
+        with open(state, "rb") as f:
+            es, best = pickle.load(f)
+        print(f"resumed at generation {es.countiter}, best {best['score']}/{of}", flush=True)
+    else:
+        x0 = encode(base)
+        es = cma.CMAEvolutionStrategy(x0, a.sigma, {"bounds": [0.0, 1.0], "popsize": a.popsize,
+                                                    "seed": 105, "verbose": -9})
+        s0, _ = score(base, opts)
+        best = {"score": s0, "of": of, "x": x0.tolist()}
+        print(f"start: {s0}/{of}", flush=True)
+    log = open(os.path.join(a.out, "log.jsonl"), "a")
+    with mp.get_context("fork").Pool(a.workers) as pool:
+        while es.countiter < a.generations:
+            xs = es.ask()
+            t0 = time.perf_counter()
+            got = pool.map(_job, [(x, opts) for x in xs])
+            scores = [g[0] for g in got]
+            es.tell(xs, [-float(s) for s in scores])
+            for x, (s, sec) in zip(xs, got):
+                log.write(json.dumps({"gen": es.countiter, "score": s, "seconds": round(sec, 1),
+                                      "x": np.round(x, 4).tolist()}) + "\n")
+                if s > best["score"]:
+                    best = {"score": s, "of": of, "x": np.asarray(x).tolist()}
+            log.flush()
+            with open(best_path, "w") as f:
+                json.dump(best, f)
+            with open(state + ".tmp", "wb") as f:
+                pickle.dump((es, best), f)
+            os.replace(state + ".tmp", state)
+            print(f"gen {es.countiter}: best {max(scores)}/{of}, median {np.median(scores):.0f}, "
+                  f"best so far {best['score']}/{of} ({time.perf_counter() - t0:.0f} s)",
+                  flush=True)
+
+
+if __name__ == "__main__":
+    main()
