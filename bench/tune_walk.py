@@ -5,13 +5,17 @@
     python bench/tune_walk.py --out runs/tune-ipm --workers 2            # resumes
     python bench/tune_walk.py --out runs/tune-ipm --write-best my.json   # the best as a style
 
-A candidate first walks at each of ``--speeds`` (m/s) from standing for ``--speed-time``
-s: each walked without a fall scores 2/3 of ``--speed-weight``, and the other third if its
-speed over the last 3 s is within 0.1 m/s of the command. Then it walks from standing for ``--settle`` s at its commanded speed (a fall scores
-nothing), then takes 0.2 s chest pushes of each of ``--forces`` N in the 8 directions of
-bench_walk.py at ``--phases`` push times over a stride (not the bench's 8, so the bench's
-figure is not the one searched on): each push survived for ``--watch`` s scores 1 (once
-per force). The parameters searched and their ranges are
+A candidate is scored on what bench_walk.py measures, each part in one short run:
+- each of ``--speeds`` (m/s) walked from standing for ``--speed-time`` s: 2/3 of
+  ``--speed-weight`` without a fall, the other third if its speed over the last 3 s is
+  within 0.1 m/s of the command;
+- each of ``--slopes`` (degrees, up and down) and ``--dt-speed`` m/s at each physics step of
+  ``--dts`` walked for ``--speed-time`` s without a fall: ``--speed-weight`` each;
+- pushes: after ``--settle`` s of walking (a fall scores no pushes), 0.2 s chest pushes of
+  each of ``--forces`` N in the 8 directions of bench_walk.py at ``--phases`` push times
+  over a stride (not the bench's 8, so the bench's figure is not the one searched on):
+  1 for each survived for ``--watch`` s.
+The parameters searched and their ranges are
 ``SPACE``; CMA-ES works on them scaled to 0..1 from the starting style's values.
 
 The search state (``es.pkl``), every candidate's score (``log.jsonl``) and the best style
@@ -50,6 +54,7 @@ SPACE = [
     ("swing_ease", None, 0.0, 1.0), ("step_time_speed", None, 0.0, 0.15),
     ("predict", None, 0.0, 0.6), ("lift_phase", None, 0.0, 0.2),
     ("speed_limit", None, 0.1, 0.4), ("speed_gain", None, 0.005, 0.08),
+    ("slope_lean", None, 0.0, 2.0), ("slope_knee", None, 0.0, 6.0),
 ]
 GAIN_SCALES = [("hip", 0.5, 1.5), ("torso", 0.5, 1.5), ("stance_knee", 0.4, 2.0)]
 
@@ -109,6 +114,7 @@ def score(style, opts):
     module docs), and the seconds it took."""
     import bench_walk as B
     from tumble.character.generalized import make_generalized
+    from tumble.character.terrain import Slope
     from tumble.character.walk import run_walk
     t0 = time.perf_counter()
     walked = 0
@@ -117,6 +123,12 @@ def score(style, opts):
         r = run_walk(c, opts["speed_time"], settle=opts["speed_time"] - 3.0)
         if not r.fallen:
             walked += 2.0 / 3.0 + (1.0 / 3.0 if abs(r.speed - v) <= 0.1 else 0.0)
+    for angle in opts["slopes"]:
+        c = make_generalized(style, Slope(math.radians(angle)))
+        walked += 0.0 if run_walk(c, opts["speed_time"]).fallen else 1.0
+    for dt in opts["dts"]:
+        c = make_generalized(style.with_(speed=opts["dt_speed"]), dt=dt)
+        walked += 0.0 if run_walk(c, opts["speed_time"]).fallen else 1.0
     args = argparse.Namespace(phases=opts["phases"], settle=opts["settle"], push_time=0.2,
                               watch=opts["watch"])
     try:
@@ -156,6 +168,11 @@ def main():
     p.add_argument("--speed-weight", type=float, default=30.0,
                    help="score of each speed walked without a fall (2/3 of it) and within 0.1 m/s "
                         "over its last 3 s (1/3)")
+    p.add_argument("--slopes", default="10,-10",
+                   help="degrees: slopes each walked for --speed-time s (--speed-weight each)")
+    p.add_argument("--dts", default="0.008333333333333333",
+                   help="s: other physics steps at which --dt-speed is walked for --speed-time s")
+    p.add_argument("--dt-speed", type=float, default=1.0)
     p.add_argument("--sigma", type=float, default=0.12, help="CMA-ES step in 0..1 units")
     p.add_argument("--popsize", type=int, default=12)
     p.add_argument("--workers", type=int, default=2)
@@ -178,8 +195,11 @@ def main():
     opts = {"style": a.style, "forces": [float(f) for f in a.forces.split(",")],
             "phases": a.phases, "settle": a.settle, "watch": a.watch,
             "speeds": [float(v) for v in a.speeds.split(",")] if a.speeds else [],
-            "speed_time": a.speed_time, "speed_weight": a.speed_weight}
-    of = len(opts["forces"]) * a.phases * 8 + len(opts["speeds"]) * a.speed_weight
+            "speed_time": a.speed_time, "speed_weight": a.speed_weight,
+            "slopes": [float(v) for v in a.slopes.split(",")] if a.slopes else [],
+            "dts": [float(v) for v in a.dts.split(",")] if a.dts else [], "dt_speed": a.dt_speed}
+    of = len(opts["forces"]) * a.phases * 8 + a.speed_weight * (
+        len(opts["speeds"]) + len(opts["slopes"]) + len(opts["dts"]))
     state = os.path.join(a.out, "es.pkl")
     if os.path.exists(state):
         with open(state, "rb") as f:

@@ -33,6 +33,7 @@ from tumble.character.gait_files import gait_names, load_gait, load_style, style
 from tumble.character.generalized import GeneralizedController, make_generalized
 from tumble.character.ipm import (GRAVITY, ipm_step, plan_step, reachable_target,
                                   swing_height, swing_target, two_link_ik)
+from tumble.character.terrain import Slope
 from tumble.character.walk import run_walk
 from tumble.errors import ModelError
 from tumble.math import quat_np as Q
@@ -113,6 +114,33 @@ def test_controller_plans_the_pendulum_step_on_synthetic_states(ctrl):
         assert c.last_plan.target == pytest.approx(want.target, abs=1e-12)
 
 
+
+
+@pytest.mark.parametrize("degrees", [-10.0, 10.0])
+def test_the_pendulum_pivots_on_the_landing_point_on_a_slope(degrees):
+    """Down a slope the planned step lands lower than the stance foot: the pendulum's
+    height is the COM's above the landing point, so the step reaches further (and up a
+    slope less far) than the flat ground's formula from the stance foot."""
+    c = make_generalized(terrain=Slope(math.radians(degrees)))
+    s = c.style
+    c.place()
+    v = np.array([0.0, 0.0, 1.2])
+    c.world.body_vel[:] = v
+    c.command[:] = (s.speed, s.side_speed)
+    c.control()
+    com, _ = center_of_mass(c.world)
+    ankle = c._anchor(c.ankle[c.stance])
+    h = float(com[1] - ankle[1]) + c.ankle_height
+    sgn = 1.0 if c.stance == 1 else -1.0
+    first = plan_step(com, v, ankle, FWD, LEFT, UP, sgn, h=h, v_des=tuple(c.command),
+                      alpha=s.alpha, scale=s.ipm_scale, step_width=s.step_width,
+                      max_step=s.max_step, min_width=s.min_step_width,
+                      foot_center=s.foot_center, adjust=tuple(c.adjust))
+    drop = c.ground_height(ankle) - c.ground_height(first.target)
+    assert (drop > 0.01) == (degrees < 0) and abs(drop) > 0.01
+    assert c.last_plan.ipm[0] == pytest.approx(s.ipm_scale[0] * ipm_step(v[2], h + drop), abs=1e-12)
+    flat = s.ipm_scale[0] * ipm_step(v[2], h)
+    assert (c.last_plan.ipm[0] > flat) == (degrees < 0)
 
 def test_pushed_steps_hurry_and_landed_knees_straighten_at_a_bounded_rate(ctrl):
     """``hurry``: the step's duration is ``step_time - hurry (|v - command| - deadband)``,

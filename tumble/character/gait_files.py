@@ -37,6 +37,8 @@ class GaitState:
         brings the thigh forward of vertical, abduction > 0 takes it outward.
     swing_knee, stance_knee : flexion, > 0 bends the knee (shank backward).
     swing_ankle, stance_ankle : dorsiflexion, > 0 lifts the toes (relative to the shank).
+    slope_knee : rad of stance-knee bend per rad of downhill slope, added over the step (the
+        knee yields under the body: walking down must absorb what the descent gives).
     torso : (pitch, roll) of the pelvis in the heading frame: pitch > 0 leans forward,
         roll > 0 leans toward the stance side.
     c_d, c_v : (sagittal, coronal) feedback gains of the swing hip on the COM offset from
@@ -162,6 +164,8 @@ class Style:
         dorsiflexion of the swing foot relative to level in the heading frame (tilted with
         the ground's slope) and of the stance foot relative to its shank (or, with
         ``stance_ankle_world``, relative to level like the swing foot's).
+    slope_knee : rad of stance-knee bend per rad of downhill slope, added over the step (the
+        knee yields under the body: walking down must absorb what the descent gives).
     torso : (pitch, roll) of the pelvis in the heading frame (pitch > 0 leans forward, roll
         > 0 toward the stance side); lean_speed : rad of extra pitch per m/s of commanded
         speed; slope_lean : rad of pitch per rad of slope under the stance foot.
@@ -211,6 +215,7 @@ class Style:
     knee_rate: float = 0.0
     swing_ease: float = 0.0
     step_time_speed: float = 0.0
+    slope_knee: float = 0.0
     hurry: float = 0.0
     hurry_deadband: float = 0.3
     min_step_time: float = 0.25
@@ -455,7 +460,7 @@ _STYLE_NUMBERS = {
     "step_time": (0.1, 2.0), "min_phase": (0.0, 1.0), "max_phase": (0.5, 5.0), "strike_load": (0.0, 2.0),
     "step_width": (-0.5, 0.5), "min_step_width": (-0.5, 0.5), "foot_center": (-0.3, 0.3), "cop_margin": (0.0, 0.1),
     "predict": (0.0, 1.0), "freeze_phase": (0.0, 5.0), "reach": (0.0, 1.0), "step_height": (0.0, 0.5), "step_peak": (0.05, 0.95), "landing": (0.0, 0.3), "lift_phase": (0.0, 0.9),
-    "stance_knee": (-0.5, 2.8), "knee_time": (0.0, 2.0), "knee_rate": (0.0, 100.0), "swing_ease": (0.0, 1.0), "step_time_speed": (-1.0, 1.0), "hurry": (0.0, 2.0), "hurry_deadband": (0.0, 5.0), "min_step_time": (0.05, 2.0), "swing_ankle": (-1.5, 1.5), "stance_ankle": (-1.5, 1.5),
+    "stance_knee": (-0.5, 2.8), "knee_time": (0.0, 2.0), "knee_rate": (0.0, 100.0), "swing_ease": (0.0, 1.0), "step_time_speed": (-1.0, 1.0), "slope_knee": (0.0, 20.0), "hurry": (0.0, 2.0), "hurry_deadband": (0.0, 5.0), "min_step_time": (0.05, 2.0), "swing_ankle": (-1.5, 1.5), "stance_ankle": (-1.5, 1.5),
     "lean_speed": (-2.0, 2.0), "slope_lean": (-5.0, 5.0), "gravity_compensation": (0.0, 2.0), "knee_support": (0.0, 2.0), "height_drop": (-0.5, 0.5),
     "speed_gain": (0.0, 2.0), "side_gain": (0.0, 2.0), "speed_limit": (0.0, 1.0),
     "accel": (0.01, 100.0)}

@@ -338,11 +338,18 @@ class GeneralizedController(SimbiconController):
             tau = s.predict * max(1.0 - phase, 0.0) * self.step_duration
             vh = vcom - (vcom @ self.up) * self.up
             com = com + tau * vh
-        plan = plan_step(com, vcom, stance_ankle, fwd, left, self.up, swing_sign, h=h,
-                         v_des=tuple(self.command), alpha=s.alpha, scale=s.ipm_scale,
-                         step_width=s.step_width, max_step=s.max_step,
-                         min_width=s.min_step_width, foot_center=s.foot_center,
-                         adjust=tuple(self.adjust))
+        def plan_at(height):
+            return plan_step(com, vcom, stance_ankle, fwd, left, self.up, swing_sign, h=height,
+                             v_des=tuple(self.command), alpha=s.alpha, scale=s.ipm_scale,
+                             step_width=s.step_width, max_step=s.max_step,
+                             min_width=s.min_step_width, foot_center=s.foot_center,
+                             adjust=tuple(self.adjust))
+        plan = plan_at(h)
+        # the pendulum pivots on the landing point: a step down a slope (or off a ledge)
+        # lands lower, so the COM stands higher above it and the step reaches further
+        drop = self.ground_height(stance_ankle) - self.ground_height(plan.target)
+        if abs(drop) > 1e-4:
+            plan = plan_at(max(h + drop, 0.1))
         return plan
 
     def gravity_torques(self, swing, anchors=None, fraction=1.0):
@@ -474,6 +481,9 @@ class GeneralizedController(SimbiconController):
         u = min(self.phase_time / t_knee, 1.0) if t_knee > 0 else 1.0
         u = u * u * (3.0 - 2.0 * u)
         knee_st = k0 + u * (s.stance_knee - k0)
+        # down a slope the stance knee yields over the step: the negative work that keeps
+        # the walk from gaining the speed the descent gives it
+        knee_st += s.slope_knee * max(-slope, 0.0) * min(phase, 1.0)
         R[self.knee[stance]] = Q.qaxis_angle_one(self.left0, knee_st)
         th_st = self.thigh[stance]
         R[hs] = Q.qmul_one(Q.qconj_one(R_pd), self._seg_rot(th_st))
