@@ -142,6 +142,24 @@ def test_the_pendulum_pivots_on_the_landing_point_on_a_slope(degrees):
     flat = s.ipm_scale[0] * ipm_step(v[2], h)
     assert (c.last_plan.ipm[0] > flat) == (degrees < 0)
 
+
+def test_the_stance_knee_yields_down_a_slope():
+    """``slope_knee``: down a slope of angle a the stance knee's target bends a further
+    ``slope_knee * a * phase``; up a slope, nothing."""
+    for degrees in (-10.0, 10.0):
+        c = make_generalized(terrain=Slope(math.radians(degrees)))
+        c.gait = c.gait.with_(slope_knee=3.0, knee_time=0.0)
+        k, sign = c.knee[c.stance], c.knee_sign[c.stance]
+        for phase in (0.0, 0.5, 1.0):
+            c.place()
+            c.phase = phase
+            c.phase_time = phase * c.gait.step_time
+            c.control()
+            extra = 3.0 * math.radians(10.0) * phase if degrees < 0 else 0.0
+            want = c.gait.stance_knee + extra
+            assert c.slope == pytest.approx(math.radians(degrees), abs=1e-9)
+            assert sign * c.world.pd_target_q[k][0] == pytest.approx(want, abs=1e-9)
+
 def test_pushed_steps_hurry_and_landed_knees_straighten_at_a_bounded_rate(ctrl):
     """``hurry``: the step's duration is ``step_time - hurry (|v - command| - deadband)``,
     at least ``min_step_time``, and the phase advances by control_dt over it. ``knee_rate``:
