@@ -106,7 +106,8 @@ def test_controller_plans_the_pendulum_step_on_synthetic_states(ctrl):
         assert c.last_plan.ipm[0] == pytest.approx(s.ipm_scale[0] * ipm_step(v[2], h), abs=1e-12)
         assert c.last_plan.ipm[1] == pytest.approx(s.ipm_scale[1] * ipm_step(v[0], h), abs=1e-12)
         sgn = 1.0 if c.stance == 1 else -1.0             # the left swings from a right stance
-        want = plan_step(com + s.predict * s.step_time * np.array([v[0], 0, v[2]]), v, ankle,
+        ahead = s.predict * c.step_duration            # phase 0: the whole step ahead
+        want = plan_step(com + ahead * np.array([v[0], 0, v[2]]), v, ankle,
                          FWD, LEFT, UP, sgn, h=h, v_des=tuple(c.command), alpha=s.alpha,
                          scale=s.ipm_scale, step_width=s.step_width, max_step=s.max_step,
                          min_width=s.min_step_width, foot_center=s.foot_center,
@@ -132,7 +133,8 @@ def test_the_pendulum_pivots_on_the_landing_point_on_a_slope(degrees):
     ankle = c._anchor(c.ankle[c.stance])
     h = float(com[1] - ankle[1]) + c.ankle_height
     sgn = 1.0 if c.stance == 1 else -1.0
-    first = plan_step(com, v, ankle, FWD, LEFT, UP, sgn, h=h, v_des=tuple(c.command),
+    ahead = com + s.predict * c.step_duration * v          # phase 0: the whole step ahead
+    first = plan_step(ahead, v, ankle, FWD, LEFT, UP, sgn, h=h, v_des=tuple(c.command),
                       alpha=s.alpha, scale=s.ipm_scale, step_width=s.step_width,
                       max_step=s.max_step, min_width=s.min_step_width,
                       foot_center=s.foot_center, adjust=tuple(c.adjust))
@@ -169,7 +171,7 @@ def test_pushed_steps_hurry_and_landed_knees_straighten_at_a_bounded_rate(ctrl):
     base = c.gait
     try:
         c.gait = base.with_(hurry=0.2, hurry_deadband=0.3, min_step_time=0.25, knee_rate=1.0,
-                            knee_time=0.2)
+                            knee_time=0.2, step_time_speed=0.0)
         s = c.gait
         for off, want in ((0.1, s.step_time), (0.5, s.step_time - 0.2 * 0.2), (3.0, 0.25)):
             c.place()
@@ -446,14 +448,15 @@ def test_turns_at_the_commanded_rate():
     assert path > 4.0
 
 
-@pytest.mark.parametrize("direction, force", [((0, 0, 1), 200.0), ((0, 0, -1), 100.0),
-                                              ((1, 0, 0), 100.0), ((-1, 0, 0), 100.0)],
+@pytest.mark.parametrize("direction, force", [((0, 0, 1), 400.0), ((0, 0, -1), 400.0),
+                                              ((1, 0, 0), 250.0), ((-1, 0, 0), 150.0)],
                          ids=["forward", "backward", "left", "right"])
 def test_survives_pushes(direction, force):
-    """0.2 s at the chest after 5 s of walking. What it takes today, with a margin at this
-    push time (it survives 250, 100, 150 and 100 N here): far below the 350 N in every
-    direction that the controller is meant for and below SIMBICON's; bench/bench_walk.py
-    searches the largest force at 8 push times of a stride."""
+    """0.2 s at the chest after 5 s of walking, with a margin at this push time (it survives
+    up to 550, 500, 300 and 200 N here; sideways is where it is weakest, and a push toward
+    the stance side, which the swing foot cannot step across, is the hardest);
+    bench/bench_walk.py counts pushes survived over 8 push times of a stride and 8
+    directions."""
     c = make_generalized()
     c.place()
     while c.time < 5.0:
@@ -462,7 +465,7 @@ def test_survives_pushes(direction, force):
                  pushes=[Push("lowerback_torso", force * np.asarray(direction, float),
                               c.world.time, 0.2)])
     _no_fall(r)
-    assert (r.com[-1] - r.com[-1 - round(2.0 / DT)]) @ FWD > 0.8      # walking on
+    assert (r.com[-1] - r.com[-1 - round(2.0 / DT)]) @ FWD > 0.5      # walking on again
 
 
 def test_walks_at_a_physics_step_of_1_120_s():

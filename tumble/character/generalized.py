@@ -6,19 +6,23 @@ the stance/swing alternation and foot-strike detection, the torso and stance-hip
 the fall check, snapshots, and the run harness ``run_walk``. What differs is how the swing
 foot is placed and how the body is helped along:
 
-- A step has a planned duration (``Style.step_time``); its phase runs 0 to 1 and the
-  stance swaps when the swing foot touches the ground after ``min_phase`` (or at
-  ``max_phase``).
+- A step has a planned duration (``Style.step_time``, less ``step_time_speed`` per m/s of
+  commanded speed, less ``hurry`` per m/s that the COM's velocity is off the command: a
+  pushed character steps sooner); its phase runs 0 to 1 and the stance swaps when the
+  swing foot touches the ground after ``min_phase`` (or at ``max_phase``).
 - Foot placement: every control period the inverted pendulum of the COM over the stance
   foot says where to step to come to rest, ``d = v sqrt(h/g + v^2 / (4 g^2))``, in the
-  sagittal and coronal directions of the heading frame (``ipm.plan_step``); the step is
+  sagittal and coronal directions of the heading frame (``ipm.plan_step``), ``h`` the
+  COM's height above the landing point (a step down a slope reaches further); the step is
   shortened by ``alpha v_desired`` (so the walk goes on), put ``step_width`` outward (so
   the COM sways back toward the next stance), bounded, kept from crossing the stance foot,
   and corrected step to step by integrals of the speed errors (``speed_gain``,
   ``side_gain``: the commanded speeds are walked whatever the pendulum's errors). From
   ``freeze_phase`` on the step is held in the world, so the foot lands still.
 - The swing ankle follows a trajectory from its lift-off place to that step (a horizontal
-  blend, a height profile, ``ipm.swing_target``; the whole path outward of the stance leg),
+  blend, eased by ``swing_ease`` so the leg is not thrown forward at lift-off, whose
+  reaction the stance hip would pass to the ground as a push forward; a height profile;
+  ``ipm.swing_target``; the whole path outward of the stance leg),
   realised by analytic two-link inverse kinematics of the swing leg (``ipm.two_link_ik``):
   the swing hip servo tracks the thigh's world orientation and the knee servo the knee
   angle, with target rates from the trajectory's derivative. The servos are implicit (they
@@ -36,7 +40,9 @@ foot is placed and how the body is helped along:
 - Torso and stance hip as SIMBICON's 'implicit' form: the stance hip is a servo toward the
   rotation that puts the pelvis at its desired world orientation (heading, pitch, roll).
   The stance knee's target goes from its bend at the strike to ``stance_knee`` over
-  ``knee_time``.
+  ``knee_time`` (at most ``knee_rate`` rad/s: a leg that lands deeply bent and
+  straightens at once launches the body into the air), and down a slope bends further
+  over the step (``slope_knee``: the knee yields, absorbing what the descent gives).
 
 Commands: ``speed`` (m/s along the heading, negative walks backward), ``side_speed`` (m/s
 to the left), ``turn_rate`` (rad/s). Styles are JSON files like the gaits (``Style``,
