@@ -37,8 +37,6 @@ class GaitState:
         brings the thigh forward of vertical, abduction > 0 takes it outward.
     swing_knee, stance_knee : flexion, > 0 bends the knee (shank backward).
     swing_ankle, stance_ankle : dorsiflexion, > 0 lifts the toes (relative to the shank).
-    slope_knee : rad of stance-knee bend per rad of downhill slope, added over the step (the
-        knee yields under the body: walking down must absorb what the descent gives).
     torso : (pitch, roll) of the pelvis in the heading frame: pitch > 0 leans forward,
         roll > 0 leans toward the stance side.
     c_d, c_v : (sagittal, coronal) feedback gains of the swing hip on the COM offset from
