@@ -110,13 +110,23 @@ def style_dict(style):
 
 
 def score(style, opts):
-    """Pushes survived plus ``--speed-weight`` for each commanded speed walked (see the
-    module docs), and the seconds it took."""
+    """The candidate's score (see the module docs) and the seconds it took; 0 for a style
+    whose walk raises (a diverged step, a malformed style), so one candidate cannot end
+    the search."""
+    t0 = time.perf_counter()
+    try:
+        points = _points(style, opts)
+    except Exception as e:
+        print(f"candidate failed: {e!r}", file=sys.stderr)
+        points = 0
+    return points, time.perf_counter() - t0
+
+
+def _points(style, opts):
     import bench_walk as B
     from tumble.character.generalized import make_generalized
     from tumble.character.terrain import Slope
     from tumble.character.walk import run_walk
-    t0 = time.perf_counter()
     walked = 0
     for v in opts["speeds"]:
         c = make_generalized(style.with_(speed=v))
@@ -129,28 +139,21 @@ def score(style, opts):
     for dt in opts["dts"]:
         c = make_generalized(style.with_(speed=opts["dt_speed"]), dt=dt)
         walked += 0.0 if run_walk(c, opts["speed_time"]).fallen else 1.0
+    points = walked * opts["speed_weight"]
     args = argparse.Namespace(phases=opts["phases"], settle=opts["settle"], push_time=0.2,
                               watch=opts["watch"])
-    try:
-        got = B.push_snapshots(lambda: make_generalized(style), args)
-    except Exception as e:                      # a style the controller cannot walk
-        print(f"candidate failed: {e!r}", file=sys.stderr)
-        return 0, time.perf_counter() - t0
+    got = B.push_snapshots(lambda: make_generalized(style), args)
     if got is None:
-        return walked * opts["speed_weight"], time.perf_counter() - t0
+        return points
     c, snaps = got
-    n = 0
     for d in B.DIRECTIONS.values():
         for f in opts["forces"]:
-            n += sum(B._survives(c, s, f * np.asarray(d), args) for s in snaps)
-    return n + walked * opts["speed_weight"], time.perf_counter() - t0
+            points += sum(B._survives(c, s, f * np.asarray(d), args) for s in snaps)
+    return points
 
 
 def _job(payload):
-    x, opts = payload
-    from tumble.character.generalized import load_style
-    base = load_style(opts["style"])
-    return score(decode(base, np.asarray(x)), opts)
+    return score(*payload)
 
 
 def main():
@@ -192,7 +195,7 @@ def main():
         print(f"wrote {a.write_best}: score {best['score']}/{best['of']}")
         return
     import cma
-    opts = {"style": a.style, "forces": [float(f) for f in a.forces.split(",")],
+    opts = {"forces": [float(f) for f in a.forces.split(",")],
             "phases": a.phases, "settle": a.settle, "watch": a.watch,
             "speeds": [float(v) for v in a.speeds.split(",")] if a.speeds else [],
             "speed_time": a.speed_time, "speed_weight": a.speed_weight,
@@ -217,7 +220,7 @@ def main():
         while es.countiter < a.generations:
             xs = es.ask()
             t0 = time.perf_counter()
-            got = pool.map(_job, [(x, opts) for x in xs])
+            got = pool.map(_job, [(decode(base, x), opts) for x in xs])
             scores = [g[0] for g in got]
             es.tell(xs, [-float(s) for s in scores])
             for x, (s, sec) in zip(xs, got):

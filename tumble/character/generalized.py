@@ -419,7 +419,8 @@ class GeneralizedController(SimbiconController):
         h = float((com - ankle) @ up) + self.ankle_height
         # the step's duration: shorter at a faster command, and the further the COM's
         # velocity is off the command
-        v_off = float(np.linalg.norm(self.command - np.array([vcom @ fwd, vcom @ left])))
+        v_heading = np.array([vcom @ fwd, vcom @ left])       # sagittal, coronal
+        v_off = float(np.linalg.norm(self.command - v_heading))
         base = s.step_time - s.step_time_speed * abs(float(self.command[0]))
         self.step_duration = max(base - s.hurry * max(v_off - s.hurry_deadband, 0.0),
                                  min(s.min_step_time, s.step_time))
@@ -518,7 +519,7 @@ class GeneralizedController(SimbiconController):
         tau_g = self.gravity_torques(swing, anchors, s.gravity_compensation)
         ff = -sum(tau_g[k] for k in self._pelvis_children if k != hs)
         tau_g[hs] += ff
-        v_err = self.command - np.array([vcom @ fwd, vcom @ left])
+        v_err = self.command - v_heading
         f2 = np.clip(np.asarray(s.velocity_gain) * v_err, -np.asarray(s.max_force),
                      np.asarray(s.max_force))
         force = f2[0] * fwd + f2[1] * left
