@@ -8,7 +8,8 @@ A sample is one policy step of one character: ``ImitationEnv.step`` with random 
 one ``World.step`` call, the observation, the reward, the fall check and the reset of the
 worlds whose episodes ended. Reported per N: samples per second (wall time, all of Numba's
 threads) and where a step's time goes (physics, reference sampling and targets, reward and
-fall check, observation, resets and the rest). PyBullet's DeepMimic environment (walk,
+fall check, observation, resets and the rest); ``--stages`` adds the physics step's own
+stage timer, in CPU microseconds a world-step. PyBullet's DeepMimic environment (walk,
 1/240 s physics, 30 Hz policy) runs on one core in a subprocess after tumble's rounds, and
 the ratio is tumble's rate over it.
 """
@@ -33,14 +34,20 @@ def _timed(fn, clock):
     return out
 
 
-def measure(nworld, seconds, contact="lcp", seed=0, projection_tolerance=None):
-    """Samples per second of ``ImitationEnv(nworld)`` and the split of a step's time."""
+def measure(nworld, seconds, contact="lcp", seed=0, projection_tolerance=None, stages=False):
+    """Samples per second of ``ImitationEnv(nworld)`` and the split of a step's time; with
+    ``stages``, also the physics step's own stage timer (``World(profile=True)``, which
+    reads the clock in every stage and so slows the step a little): CPU microseconds per
+    world and physics step in each stage, summed over the threads."""
     extra = {} if projection_tolerance is None else {"projection_tolerance": projection_tolerance}
     env = ImitationEnv(nworld, "walk", contact=contact, seed=seed, **extra)
     rng = np.random.default_rng(seed)
     env.reset()
     for _ in range(3):                       # compile and settle outside the timing
         env.step(rng.uniform(-0.3, 0.3, (nworld, env.action_size)))
+    if stages:
+        env.world.profile = True
+        env.world.stage_times(reset=True)
     # time the stages by wrapping the env's own hooks
     clocks = {k: [0.0] for k in ("physics", "reference", "reward", "observe", "reset")}
     orig = {k: getattr(env, k) for k in ("_step_physics", "_advance", "_act", "_evaluate",
@@ -62,9 +69,13 @@ def measure(nworld, seconds, contact="lcp", seed=0, projection_tolerance=None):
     wall = time.perf_counter() - start
     split = {k: v[0] / wall for k, v in clocks.items()}
     split["other"] = 1.0 - sum(split.values())
-    return {"nworld": nworld, "samples_per_s": samples / wall, "episodes_ended": ends,
-            "contacts_per_world": float(np.mean(env.world._state.contact_count)),
-            "share": split}
+    out = {"nworld": nworld, "samples_per_s": samples / wall, "episodes_ended": ends,
+           "contacts_per_world": float(np.mean(env.world._state.contact_count)),
+           "share": split}
+    if stages:
+        world_steps = samples * env.substeps
+        out["stage_us"] = {k: 1e6 * v / world_steps for k, v in env.world.stage_times().items()}
+    return out
 
 
 def peer(seconds):
@@ -87,16 +98,21 @@ def main(argv=None):
                     help="the env's joint projection tolerance (default: the env's, 1 mm; "
                          "the World's default is 5e-5)")
     ap.add_argument("--no-peer", action="store_true")
+    ap.add_argument("--stages", action="store_true",
+                    help="also time the physics step's stages (World(profile=True))")
     ap.add_argument("--json", help="write the results here")
     args = ap.parse_args(argv)
     rows = []
     for n in args.nworld:
         r = measure(n, args.seconds, args.contact,
-                    projection_tolerance=args.projection_tolerance)
+                    projection_tolerance=args.projection_tolerance, stages=args.stages)
         rows.append(r)
         share = ", ".join(f"{k} {100 * v:.0f}%" for k, v in r["share"].items())
         print(f"tumble N={n:4d}: {r['samples_per_s']:8.0f} samples/s  ({share}; "
               f"{r['contacts_per_world']:.1f} contacts a world)", flush=True)
+        if args.stages:
+            print("  us of CPU a world-step: " + ", ".join(
+                f"{k} {v:.1f}" for k, v in r["stage_us"].items() if v >= 0.05), flush=True)
     result = {"tumble": rows, "contact": args.contact,
               "projection_tolerance": args.projection_tolerance}
     if not args.no_peer:
