@@ -177,8 +177,8 @@ def _guess_and_finish(rows, part, plan, bodies, impulse, tw, gs, sweeps=0):
     Gauss-Seidel find (``sweep_on_tree``), or with ``sweeps`` > 0 (the world's
     ``contact_sweeps``) up to that many sweeps taken as they are. Otherwise
     (_GUESS_FAILED, or _GUESS_NO_ROOM when ``gs`` (``make_guess_scratch``) has no room
-    for the held rows) the bodies' velocities and ``impulse`` are left as they came. ``tw`` (``guess.tree_work``) may
-    hold anything on entry but ``b``, ``g``."""
+    for the held rows) the bodies' velocities and ``impulse`` are left as they came.
+    ``tw`` (``guess.tree_work``) may hold anything on entry but ``b``, ``g``."""
     idx, kind, oth, nn = part.idx, part.kind, part.oth, part.nn
     load, state, sub = tw.load, tw.state, tw.sub
     for a in range(nn):                     # only the slots guess_states will sum into

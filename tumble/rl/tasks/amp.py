@@ -110,8 +110,8 @@ class AMPEnv(BatchedEnv):
                  speed_range=(0.4, 2.2), command_seconds=(2.0, 5.0), max_turn=math.pi,
                  task_scale=1.0, task_reward="vector", end_effectors=None, contact_bodies=None,
                  min_root_height=0.3, holdout=0.1, amp_exclude=("toe",), turn_rate=0.8,
-                 projection_tolerance=1e-3,
-                 contact_sweeps=LEARNING_CONTACT_SWEEPS, seed=None, autoreset=True, parallel=None):
+                 projection_tolerance=1e-3, contact_sweeps=LEARNING_CONTACT_SWEEPS, seed=None,
+                 autoreset=True, parallel=None):
         where = "AMPEnv"
         check_task_settings(where, num_envs, control_hz, physics_hz, episode_seconds)
         if isinstance(clips, (str, bytes)) or not hasattr(clips, "__len__") or len(clips) == 0:
