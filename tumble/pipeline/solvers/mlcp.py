@@ -174,8 +174,9 @@ def _guess_and_finish(rows, part, plan, bodies, impulse, tw, gs, sweeps=0):
     _GUESS_SOLVED. Last step's contact state (``guess_states``) on the rows it holds
     alone (``guess_on_tree``); if that fails and there are at most ``SWEEP_ROWS`` LCP
     rows, ``S`` of them all from their tree columns and the state that sweeps of
-    Gauss-Seidel find (``sweep_on_tree``), or with ``sweeps`` > 0 (the world's
-    ``contact_sweeps``) up to that many sweeps taken as they are. Otherwise
+    Gauss-Seidel find (``sweep_on_tree``). With ``sweeps`` > 0 (the world's
+    ``contact_sweeps``) and at most ``SWEEP_ROWS`` LCP rows: up to that many sweeps taken
+    as they are, without trying last step's state first. Otherwise
     (_GUESS_FAILED, or _GUESS_NO_ROOM when ``gs`` (``make_guess_scratch``) has no room
     for the held rows) the bodies' velocities and ``impulse`` are left as they came.
     ``tw`` (``guess.tree_work``) may hold anything on entry but ``b``, ``g``."""
@@ -195,7 +196,10 @@ def _guess_and_finish(rows, part, plan, bodies, impulse, tw, gs, sweeps=0):
             ns += 1
     if ns > gs.rsel.shape[0]:
         return _GUESS_NO_ROOM
-    if not guess_on_tree(rows, part, plan, bodies, tw, ns, gs) and \
+    # with sweeps taken as they are, last step's state is not tried first: with contacts
+    # that change most steps (a learning run), trying it cost more than it saved
+    swept = sweeps > 0 and nn <= SWEEP_ROWS and nn <= gs.rsel.shape[0]
+    if (swept or not guess_on_tree(rows, part, plan, bodies, tw, ns, gs)) and \
             not sweep_on_tree(rows, part, plan, bodies, tw, gs, impulse, sweeps):
         return _GUESS_FAILED
     _finish(rows, part, tw.y, tw.p, tw.vn, bodies, impulse)

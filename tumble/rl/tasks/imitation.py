@@ -179,11 +179,10 @@ class ImitationEnv(BatchedEnv):
         drift apart by more than this. 1 mm here against the World's default 0.05 mm: at
         60 Hz a swinging limb drifts by about a millimetre a step, and projecting to 0.05 mm
         then costs two Gauss-Newton iterations nearly every step (30% of a walking step).
-    contact_sweeps : the world's option of that name: when last step's contact state does
-        not solve a step, this many sweeps of projected Gauss-Seidel on the contacts'
-        complement are taken as the contacts' answer (joints and servos stay exact); 0:
-        exact contacts (slower by a third with random actions). Default
-        ``env.LEARNING_CONTACT_SWEEPS`` (20). Saved in a policy's spec.
+    contact_sweeps : the world's option of that name: this many sweeps of projected
+        Gauss-Seidel on the contacts' complement are taken as the contacts' answer (joints
+        and servos stay exact); 0: exact contacts (a third fewer samples/s with random
+        actions). Default ``env.LEARNING_CONTACT_SWEEPS`` (20). Saved in a policy's spec.
     """
 
     def __init__(self, num_envs=1, clip="walk", *, ragdoll=None, loop=True, control_hz=30,
