@@ -92,9 +92,9 @@ def run_boxes(slide, sweeps, seconds):
 
 def test_contact_sweeps_stop_a_sliding_load_where_the_exact_contacts_do():
     """Jointed boxes riding a free box that slides at 2 m/s on the ground (mu 0.9): with 20
-    sweeps taken as they are where last step's contact state fails (the step it stops,
-    corners that land), the box stops within 0.1 mm of where exact contacts stop it (13
-    cm on), then stays put, sinking no deeper than 0.1 mm."""
+    sweeps taken as they are (sliding, the step it stops, corners that land, resting),
+    the box stops within 0.1 mm of where exact contacts stop it (13 cm on), then stays
+    put, sinking no deeper than 0.1 mm."""
     exact, deep_exact = run_boxes(2.0, 0, 2.0)
     swept, deep_swept = run_boxes(2.0, 20, 2.0)
     assert 0.1 < exact[-1] < 0.2
@@ -104,8 +104,8 @@ def test_contact_sweeps_stop_a_sliding_load_where_the_exact_contacts_do():
 
 
 def test_contact_sweeps_keep_coulombs_deceleration():
-    """Balls joined in a chain sliding at 2 m/s with mu 0.1 (sliding pyramids, which last
-    step's state mostly solves) decelerate at mu g with the sweeps on, as without."""
+    """Balls joined in a chain sliding at 2 m/s with mu 0.1 (sliding pyramids) decelerate
+    at mu g with the sweeps on, as without."""
     world = sliding_chain(2.0, mu=0.1)
     world.contact_sweeps = 20
     world.step(12)

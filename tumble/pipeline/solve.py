@@ -16,9 +16,9 @@ course ragdoll); the back-off keeps that cost to one attempt in ``LEMKE_BACKOFF_
 steps. ``solve_fast`` (the exact common case, no pivoting) is tried on every step: a
 character that gets up from the heap is solved exactly again at once.
 
-``contact_sweeps`` > 0 (a world option; the learning tasks' 20): where last step's contact
-state fails on a character's tree, that many sweeps on the contacts' complement are taken
-as they are, on the fast path and the allocating one alike (``schur_pgs.py``).
+``contact_sweeps`` > 0 (a world option; the learning tasks' 20): a character's contacts on
+its tree of joints are that many sweeps on the contacts' complement, taken as they are,
+on the fast path and the allocating one alike (``schur_pgs.py``).
 """
 import numpy as np
 from numba import njit
