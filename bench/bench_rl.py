@@ -34,15 +34,12 @@ def _timed(fn, clock):
     return out
 
 
-def measure(nworld, seconds, contact="lcp", seed=0, projection_tolerance=None, stages=False,
-            contact_sweeps=None):
+def measure(nworld, seconds, contact="lcp", seed=0, projection_tolerance=None, stages=False):
     """Samples per second of ``ImitationEnv(nworld)`` and the split of a step's time; with
     ``stages``, also the physics step's own stage timer (``World(profile=True)``, which
     reads the clock in every stage and so slows the step a little): CPU microseconds per
     world and physics step in each stage, summed over the threads."""
     extra = {} if projection_tolerance is None else {"projection_tolerance": projection_tolerance}
-    if contact_sweeps is not None:
-        extra["contact_sweeps"] = contact_sweeps
     env = ImitationEnv(nworld, "walk", contact=contact, seed=seed, **extra)
     rng = np.random.default_rng(seed)
     env.reset()
@@ -100,8 +97,6 @@ def main(argv=None):
     ap.add_argument("--projection-tolerance", type=float, metavar="M",
                     help="the env's joint projection tolerance (default: the env's, 1 mm; "
                          "the World's default is 5e-5)")
-    ap.add_argument("--contact-sweeps", type=int, metavar="N",
-                    help="the env's contact_sweeps (default: the env's, 20; 0: exact contacts)")
     ap.add_argument("--no-peer", action="store_true")
     ap.add_argument("--stages", action="store_true",
                     help="also time the physics step's stages (World(profile=True))")
@@ -110,8 +105,7 @@ def main(argv=None):
     rows = []
     for n in args.nworld:
         r = measure(n, args.seconds, args.contact,
-                    projection_tolerance=args.projection_tolerance, stages=args.stages,
-                    contact_sweeps=args.contact_sweeps)
+                    projection_tolerance=args.projection_tolerance, stages=args.stages)
         rows.append(r)
         share = ", ".join(f"{k} {100 * v:.0f}%" for k, v in r["share"].items())
         print(f"tumble N={n:4d}: {r['samples_per_s']:8.0f} samples/s  ({share}; "
@@ -120,8 +114,7 @@ def main(argv=None):
             print("  us of CPU a world-step: " + ", ".join(
                 f"{k} {v:.1f}" for k, v in r["stage_us"].items() if v >= 0.05), flush=True)
     result = {"tumble": rows, "contact": args.contact,
-              "projection_tolerance": args.projection_tolerance,
-              "contact_sweeps": args.contact_sweeps}
+              "projection_tolerance": args.projection_tolerance}
     if not args.no_peer:
         p = peer(args.seconds)
         result["pybullet_deepmimic"] = p

@@ -1,5 +1,4 @@
-"""The solve stage's choice of method (``tumble.pipeline.solve``): Lemke's back-off, and
-the contact sweeps taken as they are (``World(contact_sweeps=n)``).
+"""The solve stage's choice of method (``tumble.pipeline.solve``): Lemke's back-off.
 
 A world whose exact (Lemke) solve fails gets PGS at once for 1, 2, 4, ... up to
 ``LEMKE_BACKOFF_MAX`` steps while Lemke keeps failing, and Lemke every step again after an
@@ -8,12 +7,8 @@ exact solve. The case that needs it: the course ragdoll, servos on, lying on the
 import numpy as np
 import pytest
 
-import tumble
 from tumble.character.ragdoll import games105_ragdoll
-from tumble.errors import ModelError
 from tumble.pipeline.solve import LEMKE_BACKOFF_MAX
-
-from tests.pipeline.solvers.test_tree import boxes_on_a_free_box, sliding_chain
 
 
 @pytest.fixture(scope="module")
@@ -73,54 +68,3 @@ def test_a_restored_state_tries_lemke_at_once(fallen):
     w.reset()
     assert np.all(w.state_arrays.lcp_backoff == 0)
 
-
-
-def run_boxes(slide, sweeps, seconds):
-    """``boxes_on_a_free_box(slide)`` stepped ``seconds`` with ``contact_sweeps``: the base
-    box's x (m) each step and the deepest penetration (m) seen."""
-    world = boxes_on_a_free_box(slide)
-    world.contact_sweeps = sweeps
-    xs, deepest = [], 0.0
-    for _ in range(int(round(seconds / world.dt))):
-        world.step(1)
-        xs.append(world.body_pos[0, 0])
-        n = world.state_arrays.contact_count[0]
-        if n:
-            deepest = max(deepest, float(world.contact_arrays.depth[0, :n].max()))
-    return np.array(xs), deepest
-
-
-def test_contact_sweeps_stop_a_sliding_load_where_the_exact_contacts_do():
-    """Jointed boxes riding a free box that slides at 2 m/s on the ground (mu 0.9): with 20
-    sweeps taken as they are (sliding, the step it stops, corners that land, resting),
-    the box stops within 0.1 mm of where exact contacts stop it (13 cm on), then stays
-    put, sinking no deeper than 0.1 mm."""
-    exact, deep_exact = run_boxes(2.0, 0, 2.0)
-    swept, deep_swept = run_boxes(2.0, 20, 2.0)
-    assert 0.1 < exact[-1] < 0.2
-    assert abs(swept[-1] - exact[-1]) < 1e-4
-    assert abs(swept[-1] - swept[-120]) < 1e-6          # at rest over the last second
-    assert deep_swept < deep_exact + 1e-4
-
-
-def test_contact_sweeps_keep_coulombs_deceleration():
-    """Balls joined in a chain sliding at 2 m/s with mu 0.1 (sliding pyramids) decelerate
-    at mu g with the sweeps on, as without."""
-    world = sliding_chain(2.0, mu=0.1)
-    world.contact_sweeps = 20
-    world.step(12)
-    v0 = world.body_vel[:, 0].mean()
-    world.step(30)
-    v1 = world.body_vel[:, 0].mean()
-    assert (v0 - v1) / 0.25 == pytest.approx(0.1 * 9.81, rel=0.02)
-
-
-def test_contact_sweeps_default_to_exact_and_refuse_a_bad_count():
-    world = boxes_on_a_free_box()
-    assert world.contact_sweeps == 0
-    for bad in (-1, 2.5, "many"):
-        with pytest.raises(ModelError, match="contact_sweeps"):
-            world.contact_sweeps = bad
-    with pytest.raises(ModelError, match="contact_sweeps"):
-        tumble.World(world.model, contact_sweeps=-3)
-    assert world.contact_sweeps == 0

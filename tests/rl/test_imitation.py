@@ -86,8 +86,6 @@ def test_sizes_and_spec(env):
     assert spec["body_names"] == list(m.body_names) and spec["control_hz"] == 30
     # joints projected back together past 1 mm, not the World's 0.05 mm (the docs' why)
     assert env.world.options.projection_tolerance == spec["projection_tolerance"] == 1e-3
-    # contacts by 20 sweeps where last step's state fails, and a policy remembers it
-    assert env.world.options.contact_sweeps == spec["contact_sweeps"] == 20
     # the reward weights are DeepMimic's, normalised
     assert env.reward_weights.sum() == pytest.approx(1.0)
 

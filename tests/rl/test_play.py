@@ -50,12 +50,11 @@ def horizontal(v, up):
     return np.delete(np.asarray(v), up, axis=-1)
 
 
-def test_the_driver_makes_the_character_walk_with_the_clip(policy_file, walk_spec):
+def test_the_driver_makes_the_character_walk_with_the_clip(policy_file):
     world, driver, env = policy_world(policy_file, seed=0)
     assert isinstance(driver, PolicyDriver) and world is env.world and world.nworld == 1
     assert driver.env.substeps == 2 and world.contact == "lcp"
     assert world.options.projection_tolerance == 1e-3          # as the policy was trained
-    assert world.options.contact_sweeps == walk_spec["contact_sweeps"] == 20
     c0 = driver.clip_time
     rec = Recorder(world)
     rec.run(1.0, fps=30, control=driver)
@@ -74,15 +73,6 @@ def test_the_driver_makes_the_character_walk_with_the_clip(policy_file, walk_spe
     assert along > 0.4 * np.linalg.norm(ref_move), (moved, ref_move)
     # and its pose is the clip's: the root-relative body error stays small meanwhile
     assert np.isfinite(driver.reward) and 0.0 < driver.reward <= 1.0
-
-
-def test_a_policy_saved_before_contact_sweeps_plays_on_exact_contacts(walk_spec, tmp_path):
-    """Policies trained before specs kept ``contact_sweeps`` (the shipped ones) trained on
-    exact contacts: they play on them."""
-    spec = {k: v for k, v in walk_spec.items() if k != "contact_sweeps"}
-    tiny_policy(spec).save(tmp_path / "old.npz")
-    world, _, env = policy_world(tmp_path / "old.npz", seed=0)
-    assert world.options.contact_sweeps == 0 and env.spec()["contact_sweeps"] == 0
 
 
 def test_the_reference_walks_where_the_clip_walks():

@@ -11,7 +11,6 @@ def test_the_shipped_walk_policy_rolls_out_5_s_without_falling():
     env = ImitationEnv(4, spec["clip"], control_hz=spec["control_hz"],
                        physics_hz=spec["physics_hz"], contact=spec["contact"],
                        residual=spec["residual"], action_scale=spec["action_scale"],
-                       contact_sweeps=spec.get("contact_sweeps", 0),   # (as it trained)
                        episode_seconds=5.0, seed=7, autoreset=False)
     policy.check(env.spec())
     obs = env.reset()
@@ -40,8 +39,7 @@ def test_the_shipped_steering_policy_follows_a_turn_and_its_speeds():
     env = AMPEnv(4, spec["clips"], control_hz=spec["control_hz"],
                  physics_hz=spec["physics_hz"], contact=spec["contact"],
                  action_scale=np.asarray(spec["action_scale"]),
-                 projection_tolerance=spec["projection_tolerance"],
-                 contact_sweeps=spec.get("contact_sweeps", 0), episode_seconds=12.0, seed=11)
+                 projection_tolerance=spec["projection_tolerance"], episode_seconds=12.0, seed=11)
     result = evaluate_amp(policy, env=env, seconds=12.0, seed=11, speeds=(0.8, 1.6),
                           speed_tolerance=0.3)
     assert result["survived"] == 1.0

@@ -15,10 +15,6 @@ several times a PGS solve (measured: 8-9 ms for Lemke against 1.6 ms for PGS on 
 course ragdoll); the back-off keeps that cost to one attempt in ``LEMKE_BACKOFF_MAX + 1``
 steps. ``solve_fast`` (the exact common case, no pivoting) is tried on every step: a
 character that gets up from the heap is solved exactly again at once.
-
-``contact_sweeps`` > 0 (a world option; the learning tasks' 20): a character's contacts on
-its tree of joints are that many sweeps on the contacts' complement, taken as they are,
-on the fast path and the allocating one alike (``schur_pgs.py``).
 """
 import numpy as np
 from numba import njit
@@ -60,7 +56,7 @@ def solve_rows(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o, caches, ba
     if backoff[0] > 0:
         backoff[0] -= 1
     elif solve_mlcp(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp, np.int64(0),
-                    caches[1], fast_status != FAST_GUESS_FAILED, o.contact_sweeps) == 0:
+                    caches[1], fast_status != FAST_GUESS_FAILED) == 0:
         backoff[1] = 0
         return 0
     else:
@@ -80,7 +76,7 @@ def solve_fast(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o, caches, fa
     if o.contact != CONTACT_LCP or ncon == 0:
         return FAST_NOT_HANDLED
     return guess_on_tree_fast(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp,
-                              caches[1], fast, o.contact_sweeps)
+                              caches[1], fast)
 
 
 @njit(cache=True)

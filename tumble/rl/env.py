@@ -23,14 +23,6 @@ from ..errors import ModelError, SimulationError, TumbleError
 __all__ = ["BatchedEnv", "ActionError", "check_task_settings"]
 
 
-# Sweeps of projected Gauss-Seidel a learning task's world takes as its contacts' answer
-# (``World(contact_sweeps=...)``; joints and servos stay exact). With random actions 70% of
-# the steps change the contact state, and the exact answer cost 40% more solve. The
-# shipped walk imitation, trained on exact contacts, evaluates the same under 20 sweeps
-# (100 episodes of 20 s: all survive, body error 30.2 mm against 29.6 mm).
-LEARNING_CONTACT_SWEEPS = 20
-
-
 def check_task_settings(where, num_envs, control_hz, physics_hz, episode_seconds):
     """ModelError (naming ``where`` and the setting) unless num_envs, control_hz and
     physics_hz are positive integers, physics_hz a multiple of control_hz and

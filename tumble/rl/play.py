@@ -285,7 +285,7 @@ def policy_world(policy, *, fall_delay=1.0, restart_after=None, seed=None, **ove
         raise ModelError(f"policy_world: the policy is for the task {spec.get('task')!r}; "
                          f"this tumble plays 'imitate' and 'amp' policies")
     kwargs = _env_settings(spec, ("control_hz", "physics_hz", "contact", "residual",
-                                   "projection_tolerance", "contact_sweeps"))
+                                   "projection_tolerance"))
     clip = overrides.pop("clip", spec.get("clip", "walk"))
     kwargs.update(overrides)
     kwargs.setdefault("seed", seed)
@@ -300,11 +300,8 @@ def policy_world(policy, *, fall_delay=1.0, restart_after=None, seed=None, **ove
 
 
 def _env_settings(spec, keys):
-    """The environment keywords a policy's spec fixes: ``keys`` and the action scale. A
-    policy saved before specs kept ``contact_sweeps`` was trained on exact contacts (0)."""
+    """The environment keywords a policy's spec fixes: ``keys`` and the action scale."""
     kwargs = {k: spec[k] for k in keys if k in spec}
-    if "contact_sweeps" in keys:
-        kwargs.setdefault("contact_sweeps", 0)
     if "action_scale" in spec:
         kwargs["action_scale"] = np.asarray(spec["action_scale"], float)
     return kwargs
@@ -317,7 +314,7 @@ def _steering_world(policy, *, fall_delay, restart_after, seed, **overrides):
 
     spec = policy.spec
     kwargs = _env_settings(spec, ("control_hz", "physics_hz", "contact",
-                                   "projection_tolerance", "contact_sweeps"))
+                                   "projection_tolerance"))
     clips = overrides.pop("clips", spec.get("clips"))
     kwargs.update(overrides)
     kwargs.setdefault("seed", seed)

@@ -81,7 +81,7 @@ _CHECKS = {
     "penalty_damping": _optional(_nonneg), "slip_velocity": _optional(_pos),
     "contact_margin": _nonneg, "pd": _choice(PD_MODES), "broadphase": _choice(BROADPHASES),
     "profile": _flag, "sleep_time": _optional(_pos), "sleep_speed": _nonneg,
-    "sleep_spin": _nonneg, "contact_sweeps": _count(0),
+    "sleep_spin": _nonneg,
 }
 
 
@@ -143,15 +143,6 @@ class Options:
         it (``World.sleeping``, ``World.wake``; see ``tumble.pipeline.sleep``). Box2D
         and Bullet sleep after 0.5 s and 2 s.
     sleep_speed, sleep_spin : the thresholds of rest (default 0.05 m/s, 0.1 rad/s).
-    contact_sweeps : 0 (default): ``contact='lcp'`` is exact (last step's contact state,
-        then sweeps polished to the exact answer, then Lemke). n > 0: a character's
-        contacts (at most 16, on a tree of joints) are up to n sweeps of projected
-        Gauss-Seidel on the contact rows' Schur complement over the joints' tree, from
-        last step's impulses, taken as they are: joints and servos still exact, contacts
-        as converged as n sweeps get them (the answer of the iterative solvers of ODE,
-        Bullet and MuJoCo's PGS). For a character whose feet keep starting and stopping
-        to slide (a learning run) the solve is 40% cheaper; one standing still solves
-        faster exact. See ``tumble.pipeline.solvers.schur_pgs``.
     """
     dt: float
     contact: str = "lcp"
@@ -180,7 +171,6 @@ class Options:
     sleep_time: float = None
     sleep_speed: float = 0.05
     sleep_spin: float = 0.1
-    contact_sweeps: int = 0
 
     def __setattr__(self, name, value):
         if name not in _CHECKS:
@@ -216,4 +206,4 @@ def step_options(options, lightest_mass):
         float(o.contact_cfm), float(o.slop), float(o.bounce_threshold), float(k), float(c),
         float(v_slip), float(o.contact_margin), PD_MODES[o.pd], BROADPHASES[o.broadphase],
         bool(o.profile), float(o.sleep_time or 0.0), float(o.sleep_speed),
-        float(o.sleep_spin), int(o.contact_sweeps))
+        float(o.sleep_spin))

@@ -8,8 +8,7 @@ from tumble.pipeline.solvers.guess import make_held_scratch
 from tumble.pipeline.solvers.partition import (KIND_BILATERAL, KIND_BOX, KIND_FRICTION,
                                                KIND_UNILATERAL, partition_rows)
 from tumble.pipeline.solvers.pyramid import pyramid_lcp
-from tumble.pipeline.solvers.schur_pgs import (pyramid_minimiser, schur_pgs_exact,
-                                               schur_pgs_sweeps)
+from tumble.pipeline.solvers.schur_pgs import pyramid_minimiser, schur_pgs_exact
 
 from tests.pipeline.solvers.test_tree import (boxes_on_a_free_box, contact_problem,
                                               pyramid_residual, rows_with_gravity)
@@ -154,52 +153,3 @@ def test_the_sweeps_solve_random_contact_lcps_or_decline(seed, ncontact, nbox, n
         assert pyramid_residual(rows, n, S, c, p) <= 1e-8 * scale
     else:
         assert start != "lemke"
-
-
-def sweeps_only(rows, part, S, c, impulse, sweeps):
-    """``schur_pgs_sweeps`` (``World(contact_sweeps=...)``): the sweeps' impulses as they
-    are."""
-    nn = part.nn
-    p = np.zeros(nn)
-    ints = np.zeros(2 * nn, np.int64)
-    assert schur_pgs_sweeps(rows, part, np.ascontiguousarray(S), np.ascontiguousarray(c),
-                            impulse, p, ints[:nn], ints[nn:], sweeps)
-    return p
-
-
-def assert_inside_bounds(rows, n, p, tol):
-    """Normals push, box rows keep their bounds, each pyramid holds ``|p_1| + |p_2| <= mu
-    p_n`` (to ``tol``)."""
-    groups = {}
-    for i in range(n):
-        if rows.parent[i] >= 0:
-            groups.setdefault(rows.group[i], []).append(i)
-        else:
-            assert rows.lo[i] - tol <= p[i] <= rows.hi[i] + tol
-    for members in groups.values():
-        bound = rows.mu[members[0]] * p[rows.parent[members[0]]]
-        assert sum(abs(p[i]) for i in members) <= bound + tol
-
-
-@settings(max_examples=150, deadline=None)
-@given(seed=st.integers(0, 2**32 - 1), ncontact=st.integers(1, 6), nbox=st.integers(0, 2),
-       nbody=st.integers(1, 3), sweeps=st.integers(1, 40))
-def test_contact_sweeps_stay_inside_the_bounds_and_keep_the_answer(seed, ncontact, nbox,
-                                                                   nbody, sweeps):
-    """Random pyramid LCPs: from any start, any number of sweeps leaves every impulse inside
-    its bounds (what the step then applies is physical: normals push, friction inside its
-    pyramid), and from Lemke's answer they keep it: the LCP's solution is their fixed
-    point. (How near they get from elsewhere depends on the problem: the sweeps are
-    taken as they are.)"""
-    rng = np.random.default_rng(seed)
-    rows, n, S, c = contact_problem(rng, ncontact, nbox, nbody)
-    part = partition_rows(rows, n, np.zeros(6 * n, np.int64))
-    scale = np.abs(c).max() + np.abs(S).max()
-    for start in (np.zeros(n), rng.normal(size=n) * 3.0):
-        p = sweeps_only(rows, part, S, c, start, sweeps)
-        assert_inside_bounds(rows, n, p, 1e-9 * scale)
-    p_ref = np.zeros(n)
-    if pyramid_lcp(rows, part, S, c, np.zeros(n), 0, False, p_ref) != 0:
-        return                                       # (a failure Lemke reports; rare)
-    p = sweeps_only(rows, part, S, c, p_ref, sweeps)
-    assert pyramid_residual(rows, n, S, c, p) <= 1e-7 * scale

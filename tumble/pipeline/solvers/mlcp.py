@@ -44,21 +44,19 @@ from .tree import cached_tree_plan, make_plan_cache, plan_kept, tree_factor, tre
 
 @njit(cache=True)
 def solve_mlcp(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, max_pivots, cache,
-               guess=True, sweeps=0):
+               guess=True):
     """Solve the rows exactly; apply the impulses. Returns Lemke's status (0: solved).
 
     ``max_pivots`` caps Lemke's pivots (<= 0: ten times the LCP size). ``cache``
     (``tree.make_plan_cache``) keeps the bilateral rows' tree plan from step to step.
     ``guess`` False skips the first try on the tree (last step's contact state), for a
-    caller whose ``guess_on_tree_fast`` already tried it (FAST_GUESS_FAILED). ``sweeps``
-    > 0 (the world's ``contact_sweeps``): where last step's state fails on the tree, that
-    many sweeps taken as they are (``_guess_and_finish``), as ``guess_on_tree_fast`` does.
+    caller whose ``guess_on_tree_fast`` already tried it (FAST_GUESS_FAILED).
 
     On failure nothing is applied and ``impulse`` is left as it came (warm start for
     the caller's fallback).
     """
     return mixed_lcp_cached(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse,
-                            max_pivots, np.bool_(True), cache, guess, sweeps)
+                            max_pivots, np.bool_(True), cache, guess)
 
 
 @njit(cache=True)
@@ -72,9 +70,8 @@ def mixed_lcp(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, max_pivot
 
 @njit(cache=True)
 def mixed_lcp_cached(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, max_pivots,
-                     allow_tree, cache, guess, sweeps=0):
-    """``mixed_lcp`` with the tree plan kept in ``cache`` (``guess``, ``sweeps``: see
-    solve_mlcp)."""
+                     allow_tree, cache, guess):
+    """``mixed_lcp`` with the tree plan kept in ``cache`` (``guess``: see solve_mlcp)."""
     # (the impulses stay as they came until Lemke has solved: none is zeroed here)
     part = partition_rows(rows, nrow, np.empty(6 * nrow, np.int64))
     if part.n == 0:
@@ -83,7 +80,7 @@ def mixed_lcp_cached(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, ma
     if allow_tree and part.nb > 0:
         ok, plan = cached_tree_plan(cache, rows, part.bsel, part.nb, inv_mass, vel.shape[0])
         if ok and _factor_tree(rows, part, plan, bodies, np.empty(part.nb)):
-            return _mlcp_tree(rows, part, plan, bodies, impulse, max_pivots, guess, sweeps)
+            return _mlcp_tree(rows, part, plan, bodies, impulse, max_pivots, guess)
     return _mlcp_dense(rows, part, bodies, impulse, max_pivots)
 
 
@@ -120,12 +117,10 @@ FAST_SOLVED, FAST_NOT_HANDLED, FAST_GUESS_FAILED = 0, 1, 2
 
 
 @noalloc
-def guess_on_tree_fast(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, cache, fs,
-                       sweeps=0):
+def guess_on_tree_fast(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, cache, fs):
     """``solve_mlcp``'s common case without allocating (so without reference counting):
     the bilateral rows have a tree plan in ``cache`` already, it factorises, and last
-    step's contact state solves the LCP (``guess.guess_on_tree``), or the sweeps on the
-    complement do (``sweeps``: see ``_guess_and_finish``). Returns FAST_SOLVED
+    step's contact state solves the LCP (``guess.guess_on_tree``). Returns FAST_SOLVED
     with the impulses and velocities applied as ``solve_mlcp`` would, or else
     FAST_NOT_HANDLED or FAST_GUESS_FAILED (the guess was tried) with ``vel``, ``angvel``
     and ``impulse`` untouched (then call ``solve_mlcp``, which redoes the factorisation;
@@ -145,7 +140,7 @@ def guess_on_tree_fast(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, 
         return FAST_NOT_HANDLED
     tw = tree_work(fs.floats[part.nb:], fs.ints[6 * nrow:], part, nload, nbody)
     _right_hand_side(rows, part, bodies, tw)
-    tried = _guess_and_finish(rows, part, plan, bodies, impulse, tw, fs.guess, sweeps)
+    tried = _guess_and_finish(rows, part, plan, bodies, impulse, tw, fs.guess)
     if tried == _GUESS_SOLVED:
         return FAST_SOLVED
     # (more held rows than the scratch has room for: solve_mlcp's guess has room)
@@ -168,18 +163,16 @@ def _right_hand_side(rows, part, bodies, tw):
 
 
 @noalloc
-def _guess_and_finish(rows, part, plan, bodies, impulse, tw, gs, sweeps=0):
+def _guess_and_finish(rows, part, plan, bodies, impulse, tw, gs):
     """The tree path's first try, shared by ``_mlcp_tree`` and ``guess_on_tree_fast``
     (after ``_right_hand_side``), and when it solves the LCP, applied (``_finish``):
     _GUESS_SOLVED. Last step's contact state (``guess_states``) on the rows it holds
     alone (``guess_on_tree``); if that fails and there are at most ``SWEEP_ROWS`` LCP
     rows, ``S`` of them all from their tree columns and the state that sweeps of
-    Gauss-Seidel find (``sweep_on_tree``). With ``sweeps`` > 0 (the world's
-    ``contact_sweeps``) and at most ``SWEEP_ROWS`` LCP rows: up to that many sweeps taken
-    as they are, without trying last step's state first. Otherwise
-    (_GUESS_FAILED, or _GUESS_NO_ROOM when ``gs`` (``make_guess_scratch``) has no room
-    for the held rows) the bodies' velocities and ``impulse`` are left as they came.
-    ``tw`` (``guess.tree_work``) may hold anything on entry but ``b``, ``g``."""
+    Gauss-Seidel find (``sweep_on_tree``). Otherwise (_GUESS_FAILED, or _GUESS_NO_ROOM
+    when ``gs`` (``make_guess_scratch``) has no room for the held rows) the bodies'
+    velocities and ``impulse`` are left as they came. ``tw`` (``guess.tree_work``) may
+    hold anything on entry but ``b``, ``g``."""
     idx, kind, oth, nn = part.idx, part.kind, part.oth, part.nn
     load, state, sub = tw.load, tw.state, tw.sub
     for a in range(nn):                     # only the slots guess_states will sum into
@@ -196,18 +189,15 @@ def _guess_and_finish(rows, part, plan, bodies, impulse, tw, gs, sweeps=0):
             ns += 1
     if ns > gs.rsel.shape[0]:
         return _GUESS_NO_ROOM
-    # with sweeps taken as they are, last step's state is not tried first: with contacts
-    # that change most steps (a learning run), trying it cost more than it saved
-    swept = sweeps > 0 and nn <= SWEEP_ROWS and nn <= gs.rsel.shape[0]
-    if (swept or not guess_on_tree(rows, part, plan, bodies, tw, ns, gs)) and \
-            not sweep_on_tree(rows, part, plan, bodies, tw, gs, impulse, sweeps):
+    if not guess_on_tree(rows, part, plan, bodies, tw, ns, gs) and \
+            not sweep_on_tree(rows, part, plan, bodies, tw, gs, impulse):
         return _GUESS_FAILED
     _finish(rows, part, tw.y, tw.p, tw.vn, bodies, impulse)
     return _GUESS_SOLVED
 
 
 @njit(cache=True)
-def _mlcp_tree(rows, part, plan, bodies, impulse, max_pivots, guess, sweeps=0):
+def _mlcp_tree(rows, part, plan, bodies, impulse, max_pivots, guess):
     """The mixed LCP with the bilateral rows factorised over their tree (``plan``).
 
     Last step's contact state is tried first on the rows it holds alone
@@ -226,8 +216,7 @@ def _mlcp_tree(rows, part, plan, bodies, impulse, max_pivots, guess, sweeps=0):
                    np.zeros(2 * nn, np.int64), part, nload, nbody)
     _right_hand_side(rows, part, bodies, tw)
     if guess and _guess_and_finish(rows, part, plan, bodies, impulse, tw,
-                                   make_guess_scratch(nn, nbody, plan),
-                                   sweeps) == _GUESS_SOLVED:
+                                   make_guess_scratch(nn, nbody, plan)) == _GUESS_SOLVED:
         return LEMKE_SOLVED
     u0 = np.zeros((nbody, 6))
     y0 = np.empty(nb)

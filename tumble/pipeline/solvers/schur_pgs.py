@@ -17,9 +17,6 @@ rows' states, which a few cheap sweeps over the small dense ``S`` (nn, nn) find:
    break it and solved again, a few times (``_corrected``). Only a state that passes is
    kept: the answer is the LCP's to round-off, as Lemke's would be; otherwise Lemke runs
    as before.
-
-With ``World(contact_sweeps=n)`` step 1 alone is the answer (``schur_pgs_sweeps``): up to
-``n`` sweeps, inside every bound, complementary as far as they converged.
 """
 import numpy as np
 
@@ -295,10 +292,17 @@ def schur_pgs_exact(rows, part, S, cvec, impulse, p, state, partner, normal, eve
     False when no state found solves the LCP (then ``p`` holds anything). ``state``,
     ``partner``, ``normal``, ``every`` (nn,) int64 (``every`` holding 0 .. nn-1), ``hs``
     (``make_held_scratch``, nn rows) and ``w`` (nn,) are scratch."""
-    nn = part.nn
+    idx, kind, oth, nn = part.idx, part.kind, part.oth, part.nn
     if not friction_links(rows, part, partner, normal):
         return False
-    _warm_start(rows, part, impulse, w)
+    for a in range(nn):
+        r = idx[oth[a]]
+        v = impulse[r]
+        if kind[oth[a]] == KIND_UNILATERAL:
+            v = max(v, 0.0)
+        elif kind[oth[a]] == KIND_BOX:
+            v = min(max(v, rows.lo[r]), rows.hi[r])
+        w[a] = v
     done = np.int64(0)
     for target in SWEEP_READS:
         done += block_gauss_seidel(rows, part, S, cvec, w, partner, normal, target - done)
@@ -319,44 +323,13 @@ def schur_pgs_exact(rows, part, S, cvec, impulse, p, state, partner, normal, eve
 
 
 @noalloc
-def _warm_start(rows, part, impulse, p):
-    """``p`` (nn,): last step's impulses (by row) of the LCP rows, inside their bounds
-    (normals and limits pushing, box rows within theirs; friction as it was)."""
-    idx, kind, oth = part.idx, part.kind, part.oth
-    for a in range(part.nn):
-        r = idx[oth[a]]
-        v = impulse[r]
-        if kind[oth[a]] == KIND_UNILATERAL:
-            v = max(v, 0.0)
-        elif kind[oth[a]] == KIND_BOX:
-            v = min(max(v, rows.lo[r]), rows.hi[r])
-        p[a] = v
-
-
-@noalloc
-def schur_pgs_sweeps(rows, part, S, cvec, impulse, p, partner, normal, sweeps):
-    """The LCP of ``S``, ``c`` by at most ``sweeps`` sweeps of projected block Gauss-Seidel
-    from last step's ``impulse`` (by row), taken as they are: ``p`` (nn,) inside every
-    bound (normals push, friction groups inside their pyramids), complementary only as
-    far as the sweeps converged (they stop early once no impulse moves by more than
-    ``SWEEP_TOL`` of the largest). False when a friction pyramid has more than two rows
-    (then the caller solves another way). ``partner``, ``normal`` (nn,) int64 scratch."""
-    if not friction_links(rows, part, partner, normal):
-        return False
-    _warm_start(rows, part, impulse, p)
-    block_gauss_seidel(rows, part, S, cvec, p, partner, normal, sweeps)
-    return True
-
-
-@noalloc
-def sweep_on_tree(rows, part, plan, bodies, tw, gs, impulse, sweeps=0):
+def sweep_on_tree(rows, part, plan, bodies, tw, gs, impulse):
     """``schur_pgs_exact`` on the complement of every LCP row from their tree columns
     (``guess.columns_complement``), the new velocities applied to ``tw.vn``, ``tw.y``
     (``guess.columns_velocities``), for a caller whose guess on the tree failed (the
-    tree factorised, ``tw.b`` and ``tw.g`` set); with ``sweeps`` > 0, ``schur_pgs_sweeps``
-    instead (at most that many sweeps, not polished). True when solved (``tw.p`` the
-    impulses); False when the rows are more than ``gs`` has room for or the sweeps' state
-    does not solve the LCP."""
+    tree factorised, ``tw.b`` and ``tw.g`` set). True when solved (``tw.p`` the impulses);
+    False when the rows are more than ``gs`` has room for or the sweeps' state does not
+    solve the LCP."""
     nn = part.nn
     if nn > gs.rsel.shape[0] or nn > SWEEP_ROWS:
         return False
@@ -364,13 +337,8 @@ def sweep_on_tree(rows, part, plan, bodies, tw, gs, impulse, sweeps=0):
     for a in range(nn):
         sub[a] = a
     columns_complement(rows, part, plan, bodies, tw, nn, gs)
-    partner, normal = gs.links[:nn], gs.links[nn:2 * nn]
-    if sweeps > 0:
-        if not schur_pgs_sweeps(rows, part, gs.S, gs.cvec, impulse, tw.p, partner, normal,
-                                sweeps):
-            return False
-    elif not schur_pgs_exact(rows, part, gs.S, gs.cvec, impulse, tw.p, tw.state, partner,
-                             normal, sub, gs.held, gs.w):
+    if not schur_pgs_exact(rows, part, gs.S, gs.cvec, impulse, tw.p, tw.state,
+                           gs.links[:nn], gs.links[nn:2 * nn], sub, gs.held, gs.w):
         return False
     columns_velocities(rows, part, plan, bodies, tw, nn, gs)
     return True

@@ -52,7 +52,7 @@ import numpy as np
 from ...errors import ModelError
 from ...character.ragdoll import Ragdoll, games105_ragdoll
 from ...math import quat_np as Q
-from ..env import LEARNING_CONTACT_SWEEPS, BatchedEnv, check_task_settings
+from ..env import BatchedEnv, check_task_settings
 from ..kernels import (AMP_JOINT_FEATURES, AMP_ROOT_FEATURES, BODY_OBS, HEADING_REWARD_MODES,
                        amp_features, fallen, heading_command, heading_reward, observe,
                        pd_targets)
@@ -101,8 +101,7 @@ class AMPEnv(BatchedEnv):
         root's angular velocity about the vertical (the only feature a steady turn about the
         root changes: everything else is in the heading frame). The course's clips go
         straight ahead; without it turning looks unlike them. 0: as recorded.
-    projection_tolerance, contact_sweeps, seed, autoreset, parallel : as in the imitation
-        task.
+    projection_tolerance, seed, autoreset, parallel : as in the imitation task.
     """
 
     def __init__(self, num_envs=1, clips=DEFAULT_CLIPS, *, ragdoll=None, control_hz=30,
@@ -110,8 +109,7 @@ class AMPEnv(BatchedEnv):
                  speed_range=(0.4, 2.2), command_seconds=(2.0, 5.0), max_turn=math.pi,
                  task_scale=1.0, task_reward="vector", end_effectors=None, contact_bodies=None,
                  min_root_height=0.3, holdout=0.1, amp_exclude=("toe",), turn_rate=0.8,
-                 projection_tolerance=1e-3, contact_sweeps=LEARNING_CONTACT_SWEEPS, seed=None,
-                 autoreset=True, parallel=None):
+                 projection_tolerance=1e-3, seed=None, autoreset=True, parallel=None):
         where = "AMPEnv"
         check_task_settings(where, num_envs, control_hz, physics_hz, episode_seconds)
         if isinstance(clips, (str, bytes)) or not hasattr(clips, "__len__") or len(clips) == 0:
@@ -185,8 +183,7 @@ class AMPEnv(BatchedEnv):
         self.forward = self._forward_angle()
         world = self.ragdoll.make_world(dt=1.0 / physics_hz, contact=contact, nworld=int(num_envs),
                                         parallel=parallel,
-                                        projection_tolerance=projection_tolerance,
-                                        contact_sweeps=contact_sweeps)
+                                        projection_tolerance=projection_tolerance)
         world.joint_kp = kp
         world.joint_kd = kd
         N = int(num_envs)
@@ -434,7 +431,6 @@ class AMPEnv(BatchedEnv):
             "control_hz": self.control_hz, "physics_hz": self.physics_hz,
             "action_scale": self.action_scale.tolist(), "contact": self.world.contact,
             "projection_tolerance": float(self.world.options.projection_tolerance),
-            "contact_sweeps": int(self.world.options.contact_sweeps),
         }
 
 

@@ -46,7 +46,7 @@ from ...errors import ModelError
 from ...io.bvh import Motion, load_bvh
 from ...character.ragdoll import Ragdoll, games105_ragdoll
 from ...data.games105 import CLIPS, clip_path
-from ..env import LEARNING_CONTACT_SWEEPS, BatchedEnv, check_task_settings
+from ..env import BatchedEnv, check_task_settings
 from ..kernels import (BODY_OBS, DOF_BALL, DOF_HINGE, DOF_UNIVERSAL, fallen, imitation_reward,
                        observe, pd_targets)
 from ..reference import ReferenceMotion, ReferenceSample
@@ -179,18 +179,13 @@ class ImitationEnv(BatchedEnv):
         drift apart by more than this. 1 mm here against the World's default 0.05 mm: at
         60 Hz a swinging limb drifts by about a millimetre a step, and projecting to 0.05 mm
         then costs two Gauss-Newton iterations nearly every step (30% of a walking step).
-    contact_sweeps : the world's option of that name: this many sweeps of projected
-        Gauss-Seidel on the contacts' complement are taken as the contacts' answer (joints
-        and servos stay exact); 0: exact contacts (a third fewer samples/s with random
-        actions). Default ``env.LEARNING_CONTACT_SWEEPS`` (20). Saved in a policy's spec.
     """
 
     def __init__(self, num_envs=1, clip="walk", *, ragdoll=None, loop=True, control_hz=30,
                  physics_hz=60, contact="lcp", episode_seconds=10.0, residual=True,
                  action_scale=0.5, gains=None, torque_limits=False, reward_weights=REWARD_WEIGHTS,
                  reward_scales=REWARD_SCALES, end_effectors=None, contact_bodies=None,
-                 min_root_height=0.3, random_start=True, projection_tolerance=1e-3,
-                 contact_sweeps=LEARNING_CONTACT_SWEEPS, seed=None,
+                 min_root_height=0.3, random_start=True, projection_tolerance=1e-3, seed=None,
                  autoreset=True, parallel=None):
         where = "ImitationEnv"
         check_task_settings(where, num_envs, control_hz, physics_hz, episode_seconds)
@@ -240,8 +235,7 @@ class ImitationEnv(BatchedEnv):
         self.random_start = bool(random_start)
         world = self.ragdoll.make_world(dt=1.0 / physics_hz, contact=contact, nworld=int(num_envs),
                                         parallel=parallel,
-                                        projection_tolerance=projection_tolerance,
-                                        contact_sweeps=contact_sweeps)
+                                        projection_tolerance=projection_tolerance)
         world.joint_kp = kp
         world.joint_kd = kd
         world.joint_max_torque = limit
@@ -345,5 +339,4 @@ class ImitationEnv(BatchedEnv):
             "residual": self.residual, "action_scale": self.action_scale.tolist(),
             "contact": self.world.contact,
             "projection_tolerance": float(self.world.options.projection_tolerance),
-            "contact_sweeps": int(self.world.options.contact_sweeps),
         }
