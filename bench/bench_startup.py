@@ -9,7 +9,9 @@ a new empty directory (``NUMBA_CACHE_DIR``: cold) and then again in the same dir
 (warm). Reported per run: seconds to the first line the demo prints with a figure in it
 (the state at t = 0; the header line before it costs nothing), to its first line after a
 step (when the step's compile is paid), to its end, and the interpreter's peak resident
-memory; for a scene: import, model build, world, first ``step(1)``.
+memory; for a scene: import, model build, world, first ``step(1)``. A cold first step compiles the
+step's stages partly in worker processes (``tumble._compile``): the largest worker's peak
+memory is reported beside the interpreter's.
 
 The scenes run one after another in one cache, as a user meets them: each pays only for the
 kernels the runs before it did not compile, so the cold column sums to what compiling
@@ -31,8 +33,9 @@ sys.path.insert(0, str(ROOT))
 DEFAULT_SCENES = ["chain", "stack", "pyramid", "ragdoll600", "ragdoll600pd", "spheres"]
 
 _REPORT_RSS = ("import atexit, resource\n"
-               "atexit.register(lambda: print('MAXRSS_MB %.1f' % (resource.getrusage("
-               "resource.RUSAGE_SELF).ru_maxrss / 1024.0), flush=True))\n")
+               "atexit.register(lambda: print('MAXRSS_MB %.1f %.1f' % (resource.getrusage("
+               "resource.RUSAGE_SELF).ru_maxrss / 1024.0, resource.getrusage("
+               "resource.RUSAGE_CHILDREN).ru_maxrss / 1024.0), flush=True))\n")
 
 _DEMO = _REPORT_RSS + ("import sys\nfrom tumble.cli import main\n"
                        "sys.exit(main(['demo', '--seconds', '{seconds}']))\n")
@@ -73,8 +76,8 @@ def _run(code, cache):
     total = time.perf_counter() - t0
     if code_ != 0:
         raise RuntimeError(f"run failed ({code_}):\n{err[-2000:]}")
-    rss = next((float(text.split()[1]) for _, text in lines if text.startswith("MAXRSS_MB")),
-               float("nan"))
+    rss = next(([float(v) for v in text.split()[1:3]] for _, text in lines
+                if text.startswith("MAXRSS_MB")), [float("nan")] * 2)
     return lines, total, rss
 
 
@@ -84,13 +87,13 @@ def demo(cache, seconds):
     lines, total, rss = _run(_DEMO.format(seconds=seconds), cache)
     rows = [t for t, text in lines if text.strip()[:1].isdigit()] + [float("nan")] * 2
     return dict(first_figures_s=rows[0], first_step_row_s=rows[1], total_s=total,
-                peak_mb=rss)
+                peak_mb=rss[0], worker_peak_mb=rss[1])
 
 
 def scene(name, variant, cache):
     lines, total, rss = _run(_SCENE.format(scene=name, variant=variant), cache)
     data = next(json.loads(text[6:]) for _, text in lines if text.startswith("SCENE "))
-    data.update(process_s=total, peak_mb=rss)
+    data.update(process_s=total, peak_mb=rss[0], worker_peak_mb=rss[1])
     return data
 
 
@@ -139,15 +142,20 @@ def main():
                 warm = scene(name, args.variant, cache)
             results["scenes"][name] = {"cold": cold, "warm": warm}
             print(f"{name:14s} first step {cold['first_step_s']:6.1f} s cold "
-                  f"({cold['process_s']:6.1f} s in all, peak {cold['peak_mb']:5.0f} MB), "
+                  f"({cold['process_s']:6.1f} s in all, peak {cold['peak_mb']:5.0f} MB, "
+                  f"compile workers' {cold['worker_peak_mb']:5.0f} MB), "
                   f"{warm['first_step_s'] * 1000:6.1f} ms warm ({warm['process_s']:.2f} s)",
                   flush=True)
     cold_total = sum(r["cold"]["process_s"] for r in results["scenes"].values())
     peak = max([r["cold"]["peak_mb"] for r in results["scenes"].values()] or [0.0])
+    worker_peak = max([r["cold"]["worker_peak_mb"] for r in results["scenes"].values()]
+                      or [0.0])
     results["scenes_cold_total_s"] = cold_total
     results["scenes_cold_peak_mb"] = peak
+    results["scenes_cold_worker_peak_mb"] = worker_peak
     print(f"scenes cold, {'each alone' if args.alone else 'one after another'}: "
-          f"{cold_total:.0f} s in all, peak {peak:.0f} MB", flush=True)
+          f"{cold_total:.0f} s in all, peak {peak:.0f} MB (a compile worker's "
+          f"{worker_peak:.0f} MB)", flush=True)
     if args.suite:
         with tempfile.TemporaryDirectory() as cache:
             results["suite"] = suite(cache)

@@ -1,5 +1,7 @@
 """tumble._jit: the noalloc rule is enforced, the namedtuple helpers, the clock, the
-argument box and calls through a compiled function's address work."""
+argument box (read with and without the runtime), calls through a compiled function's
+address, allocating kernels under noalloc callers and loading from the cache work."""
+import sys
 from collections import namedtuple
 
 import numpy as np
@@ -7,8 +9,9 @@ import pytest
 from numba import njit, typeof, types
 from numba.core.errors import TypingError
 
-from tumble._jit import (ENTRY_POINTS, HAS_TICKS, ArgBox, assign_arrays, assign_heads,
-                         call_compiled, compiled_address, copy_arrays, noalloc, tick_seconds,
+from tumble._jit import (ENTRY_POINTS, HAS_TICKS, ArgBox, allocating, assign_arrays,
+                         assign_heads, box_args, call_address, call_compiled, caches_to_disk,
+                         compiled_address, copy_arrays, load_cached, noalloc, tick_seconds,
                          ticks, world_of)
 
 Pair = namedtuple("Pair", ["a", "count"])
@@ -160,3 +163,86 @@ def test_call_compiled_runs_the_callee_without_linking_its_code():
     callee = _scaled_sum.overloads[(typeof(box), types.float64)].fndesc.llvm_func_name
     assert f"define i32 @\"{callee}\"" not in ir and f"define i32 @{callee}" not in ir
     assert "inttoptr" in ir
+
+
+@noalloc
+def _sum_borrowed(box):
+    a, pair = box_args(box)
+    pair.b[0] += 1.0
+    return a.sum() + pair.b[0]
+
+
+@njit
+def _sum_counted(box):
+    a, pair = box_args(box)
+    return a.sum() + pair.b.shape[0]
+
+
+def test_box_args_reads_the_box_without_the_runtime_and_counts_with_it():
+    """``box_args`` in a noalloc function reads the box's own arrays (writes reach them);
+    in a function with the runtime it counts the references it takes and gives them back:
+    the arrays' reference counts are where they were after many calls of both."""
+    a, pair = np.arange(3.0), Two(np.zeros(2), np.zeros(4))
+    box = _boxed(a, pair)
+    assert _sum_borrowed(box) == 3.0 + 1 and _sum_counted(box) == 3.0 + 4      # compiled
+    before = sys.getrefcount(a), sys.getrefcount(pair.b)
+    for i in range(1000):
+        assert _sum_borrowed(box) == 3.0 + i + 2
+        assert _sum_counted(box) == 3.0 + 4
+    assert pair.b[0] == 1001.0
+    assert (sys.getrefcount(a), sys.getrefcount(pair.b)) == before
+
+
+def _declared_callee(x, k):
+    return np.int64(k * x.shape[0])
+
+
+@njit          # not cached, as above
+def _through_declared(address, x):
+    total = np.int64(0)
+    for k in range(3):
+        total += call_address(address, types.int64, (x, k))
+    return total
+
+
+def test_call_address_compiles_the_caller_without_compiling_the_callee():
+    """The caller compiles with the callee's result type declared, before the callee is
+    compiled at all; then it runs the callee through its address."""
+    callee = noalloc(cache=False)(_declared_callee)
+    x = np.zeros(5)
+    _through_declared.compile((types.int64, typeof(x)))
+    assert not callee.overloads
+    address = compiled_address(callee, (typeof(x), types.int64))
+    assert _through_declared(address, x) == 0 + 5 + 10
+
+
+def test_a_noalloc_function_may_call_an_allocating_one():
+    """An ``allocating`` kernel keeps the runtime under a noalloc caller (a plain njit one
+    fails to type there), and the reference counts stay balanced."""
+    @allocating(cache=False)
+    def doubled_sum(a):
+        b = np.empty(2 * a.shape[0])
+        b[:a.shape[0]] = a
+        b[a.shape[0]:] = a
+        return b.sum()
+
+    @noalloc(cache=False)
+    def caller(a):
+        return doubled_sum(a[1:]) + 1.0
+
+    a = np.arange(5.0)
+    assert caller(a) == 21.0                  # compiled (the compile may keep a reference)
+    before = sys.getrefcount(a)
+    for _ in range(1000):
+        caller(a)
+    assert sys.getrefcount(a) == before
+
+
+def test_load_cached_never_compiles():
+    """A dispatcher with no code and nothing cached stays without code; once compiled it
+    has code."""
+    fresh = njit(cache=False)(lambda x: x + 1)
+    assert not load_cached(fresh, (types.int64,))
+    assert not fresh.overloads and not caches_to_disk(fresh)
+    fresh.compile((types.int64,))
+    assert load_cached(fresh, (types.int64,))

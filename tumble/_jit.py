@@ -1,9 +1,10 @@
 """Every use of Numba's internals in one module, so that a Numba upgrade touches one file:
-``noalloc`` (the ``_nrt`` option and a compiler pass), the namedtuple helpers of compiled
-code (``world_of``, ``copy_arrays``, ``assign_heads``, ...), a clock for
-compiled code (``ticks``), the box that hands many arrays to compiled code as one object
-(``ArgBox``), the entry points that skip the dispatcher (``ENTRY_POINTS``), and calls
-between compiled functions through an address (``call_compiled``, ``compiled_address``).
+``noalloc`` and ``allocating`` (the ``_nrt`` option and a compiler pass), the namedtuple
+helpers of compiled code (``world_of``, ``copy_arrays``, ``assign_heads``, ...), a clock
+for compiled code (``ticks``), the box that hands many arrays to compiled code as one
+object (``ArgBox``, read without the runtime by ``box_args``), the entry points that skip
+the dispatcher (``ENTRY_POINTS``), and calls between compiled functions through an
+address (``call_compiled``, ``compiled_address``).
 
 ``noalloc``: the Numba decorator for compiled helpers that allocate nothing.
 
@@ -25,11 +26,12 @@ typing error on the allocating call, and ``noalloc``'s own compiler pass the sec
 * it returns no array (nor a view, nor a tuple holding one): the caller would release
   a reference it was never given. Helpers that return views (``geom_verts``) are
   inlined instead (``inline="always"``), so their views are borrowed too;
-* it calls no compiled function that returns a new array, nor one that allocates at all:
-  Numba compiles a callee with its caller's options, so a callee's ``np.empty`` fails
-  to type inside a ``noalloc`` caller. An allocating solver therefore gets a
-  ``noalloc`` fast path over scratch made in advance (``mlcp.guess_on_tree_fast``),
-  called first, with the allocating path after it.
+* it calls no compiled function that returns a new array, and calls one that allocates
+  only if that one is declared ``allocating``: Numba compiles a callee with its caller's
+  options, so a plain callee's ``np.empty`` fails to type inside a ``noalloc`` caller,
+  while an ``allocating`` one keeps the runtime (and counts its own references). The
+  common case of an allocating solver still gets a ``noalloc`` fast path over scratch
+  made in advance (``mlcp.guess_on_tree_fast``), called first.
 
 Every array a compiled function with the runtime receives in a namedtuple costs an
 increment and a decrement of its count per call (about 14 ns a pair here): passing the
@@ -51,6 +53,7 @@ import numpy as np
 from llvmlite import ir
 from numba import njit, types
 from numba.core import cgutils, errors
+from numba.core.compiler_lock import global_compiler_lock
 from numba.core.compiler import CompilerBase, DefaultPassBuilder
 from numba.core.compiler_machinery import FunctionPass, register_pass
 from numba.core.typed_passes import NopythonTypeInference
@@ -110,6 +113,19 @@ def noalloc(fn=None, **options):
     if _HAS_NRT_OPTION:
         options["_nrt"] = False
         options["pipeline_class"] = _NoallocCompiler
+    if fn is None:
+        return lambda f: njit(**options)(f)
+    return njit(**options)(fn)
+
+
+def allocating(fn=None, **options):
+    """``njit(cache=True, **options)`` for a kernel that allocates and is called from
+    ``noalloc`` code (the general broad phase, stable PD, the exact solve): it keeps
+    Numba's runtime instead of inheriting its caller's lack of it, and counts references
+    to the (borrowed) arrays it is given on the way in and out."""
+    options.setdefault("cache", True)
+    if _HAS_NRT_OPTION:
+        options["_nrt"] = True
     if fn is None:
         return lambda f: njit(**options)(f)
     return njit(**options)(fn)
@@ -288,6 +304,49 @@ class ArgBox(structref.StructRefProxy):
 
 structref.define_proxy(ArgBox, ArgBoxType, ["args"])
 
+# Numba's own ``box.args`` needs the runtime (it finds the payload through an NRT call) and
+# counts a reference to each of the tuple's ~200 arrays; the payload pointer is the fourth
+# field of Numba's MemInfo struct (``NRT_MemInfo``: refct, dtor, dtor_info, data, size).
+_MEMINFO = ir.LiteralStructType([cgutils.intp_t, cgutils.voidptr_t, cgutils.voidptr_t,
+                                 cgutils.voidptr_t, cgutils.intp_t])
+
+
+@intrinsic
+def box_args(typingctx, box):
+    """``box.args`` (an :class:`ArgBox`'s tuple) without Numba's runtime: in a ``noalloc``
+    function a borrowed tuple, the box's own arrays, with no reference counted, so reading
+    it costs a few loads and compiles in a fraction of a second. With the runtime on, the
+    tuple is counted as a new reference, as Numba's own read does."""
+    if not isinstance(box, ArgBoxType):
+        return None
+    argty = box.field_dict["args"]
+
+    def codegen(context, builder, signature, llargs):
+        ref = cgutils.create_struct_proxy(box)(context, builder, value=llargs[0])
+        meminfo = builder.bitcast(ref.meminfo, _MEMINFO.as_pointer())
+        payload = builder.load(cgutils.gep(builder, meminfo, 0, 3))
+        layout = context.data_model_manager[box.get_data_type()].get_value_type()
+        field = cgutils.gep_inbounds(builder, builder.bitcast(payload, layout.as_pointer()),
+                                     0, 0)                   # the payload's one field, args
+        value = _load_by_leaf(builder, field, argty)
+        if context.enable_nrt:
+            context.nrt.incref(builder, argty, value)
+        return value
+    return argty(box), codegen
+
+
+def _load_by_leaf(builder, ptr, ty):
+    """The value of Numba type ``ty`` at ``ptr``, its tuples assembled from a load of each
+    array or scalar: LLVM drops the loads nobody reads, where one load of the whole ~12 KB
+    tuple was copied at every read (0.2-0.3 us)."""
+    if isinstance(ty, types.BaseTuple) and len(ty) > 0:
+        value = ir.Constant(ptr.type.pointee, ir.Undefined)
+        for i, t in enumerate(ty.types):
+            item = _load_by_leaf(builder, cgutils.gep_inbounds(builder, ptr, 0, i), t)
+            value = builder.insert_value(value, item, i)
+        return value
+    return builder.load(ptr)
+
 
 # ----------------------------------------------------------------------------------------
 # Calling compiled code from Python without the dispatcher's type matching.
@@ -364,7 +423,13 @@ def call_compiled(typingctx, address, fn, args):
         return None
     argtys = tuple(types.unliteral(t) for t in args.types)
     restype = typingctx.resolve_function_type(fn, argtys, {}).return_type
+    return restype(address, fn, args), _call_through(args, argtys, restype)
 
+
+def _call_through(args, argtys, restype):
+    """Codegen of a call through the address in the first argument with the tuple in the
+    third, as a compiled function of ``argtys`` returning ``restype`` is called (Numba's
+    calling convention; an exception raised in the callee propagates)."""
     def codegen(context, builder, signature, llargs):
         values = cgutils.unpack_tuple(builder, llargs[2], len(argtys))
         values = [context.cast(builder, v, t, u)
@@ -376,7 +441,52 @@ def call_compiled(typingctx, address, fn, args):
         with cgutils.if_unlikely(builder, status.is_error):
             context.call_conv.return_status_propagate(builder, status)
         return out
-    return restype(address, fn, args), codegen
+    return codegen
+
+
+@intrinsic
+def call_address(typingctx, address, restype, args):
+    """The function at ``address`` (``compiled_address``) called with the tuple ``args``,
+    its result declared as ``restype`` (a Numba type, e.g. ``types.int64``): as
+    ``call_compiled`` but without typing the callee, so the caller compiles without
+    compiling it (what lets the step and its stages compile in separate processes). The
+    callee must have been compiled for exactly these argument types and return
+    ``restype``."""
+    if not isinstance(address, types.Integer):
+        return None
+    if isinstance(restype, (types.NumberClass, types.TypeRef)):
+        result = restype.instance_type
+    else:
+        return None
+    argtys = tuple(types.unliteral(t) for t in args.types)
+    return result(address, restype, args), _call_through(args, argtys, result)
+
+
+def load_cached(dispatcher, argtypes):
+    """Whether ``dispatcher`` has code for the Numba types ``argtypes`` in this process,
+    loading it from Numba's on-disk cache if it is there; never compiles (Numba's own
+    ``compile`` does this first, then compiles)."""
+    sig = tuple(argtypes)
+    if sig in dispatcher.overloads:
+        return True
+    try:
+        with global_compiler_lock:
+            cres = dispatcher._cache.load_overload(sig, dispatcher.targetctx)
+            if cres is None:
+                return False
+            dispatcher.targetctx.insert_user_function(cres.entry_point, cres.fndesc,
+                                                      [cres.library])
+            dispatcher.add_overload(cres)
+    except AttributeError:            # pragma: no cover - a Numba that moved its internals
+        return False
+    return True
+
+
+def caches_to_disk(dispatcher):
+    """Whether ``dispatcher`` keeps what it compiles in Numba's on-disk cache (so another
+    process can compile it for this one)."""
+    cache = getattr(dispatcher, "_cache", None)
+    return cache is not None and type(cache).__name__ != "NullCache"
 
 
 def compiled_address(dispatcher, argtypes):

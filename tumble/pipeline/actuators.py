@@ -30,7 +30,7 @@ slides are folded into the joint's servo by the World instead so they run implic
 import numpy as np
 from numba import njit
 
-from .._jit import noalloc
+from .._jit import allocating, noalloc
 
 from ..math.quat import quat_conj, quat_log, quat_mul, quat_rotate
 from ..model.types import ACT_MOTOR, ROWS_PER_DOF
@@ -127,7 +127,7 @@ def actuator_forces(m, pos, quat, vel, angvel, drive, ctrl, mode, force, torque)
         _apply_dof(force, torque, pos, a, b, e, linear, anchor_a, anchor_b, m.act_gear[i] * amount)
 
 
-@njit(cache=True)
+@allocating
 def stable_servo_forces(m, pos, quat, vel, angvel, drive, h, o_erp, o_cfm, gyroscopic,
                         tolerance, rows, imp, vel_pred, angvel_pred, inv_inertia, force,
                         torque, cache):

@@ -19,13 +19,13 @@ is called through its compiled entry point (``_jit.ENTRY_POINTS``). The same com
 ``step_span`` serves the serial and the batched step (a box per span of worlds).
 """
 import numpy as np
-from numba import njit
+from numba import njit, typeof, types
 
-from .._jit import ArgBox, assign_arrays, assign_heads, noalloc
+from .._jit import ArgBox, assign_arrays, assign_heads, box_args, noalloc
 from ..model.types import STATIC
 from .checks import DRIVE_OK, STATE_OK, check_drives, check_state
-from .step import STEP_OK, step_worlds
-from .work import work_fits
+from .step import STEP_OK, StageAddresses, step_worlds
+from .work import make_step_work, work_fits
 
 # What step_span reports in its first field.
 CALL_STEPPED, CALL_BAD_STATE, CALL_BAD_DRIVE, CALL_NEW_WORK = 0, 1, 2, 3
@@ -79,11 +79,12 @@ def prepare_inputs(m, s, c, ball):
     return CALL_STEPPED, 0, -1, -1
 
 
-@njit(cache=True)
-def step_span(box, n, o, alone):
+@noalloc
+def step_span(box, stages, n, o, alone):
     """Check and step the worlds of the arrays in ``box`` (``box_step_args``: the model,
     state, controls and contacts -- of a whole batch, or views of a span of its worlds --
-    a pair buffer, the ball-joint marks and scratch made for those worlds) ``n`` times.
+    a pair buffer, the ball-joint marks and scratch made for those worlds) ``n`` times;
+    ``stages``: the step's stages' compiled code (``step.stage_addresses``).
     ``alone``: the box is the whole call (the serial step: it clears the applied loads
     once stepped, or restores everything on a failure); otherwise a thread's span of a
     batch (the caller gives the verdict, clears and restores).
@@ -93,20 +94,19 @@ def step_span(box, n, o, alone):
     nothing changed; CALL_NEW_WORK when the scratch does not fit (make it anew and call
     again); CALL_STEPPED with step_worlds' (status, world, body in index, step, needed).
 
-    The saving, checks and preparation are inlined here (Numba IR): a call would count a
-    reference to each of its ~210 arrays on the way in and out (5 us). ``step_worlds`` is
-    not: inlined, its loop ran 1.5 us a step slower.
+    It reads the box without counting references (``_jit.box_args``: a call with the
+    runtime would count one for each of its ~210 arrays on the way in and out, 5 us).
     """
-    m, s, c, con, pairs, ball, work = box.args
+    m, s, c, con, pairs, ball, work = box_args(box)
     if not work_fits(work, m, s, c, con, o):
-        return CALL_NEW_WORK, 0, -1, -1, -1, np.int64(0)
+        return CALL_NEW_WORK, np.int64(0), np.int64(-1), np.int64(-1), np.int64(-1), np.int64(0)
     save_inputs(s, c, con, work.saved)
     stage, code, w, i = prepare_inputs(m, s, c, ball)
     if stage != CALL_STEPPED:
         if alone:
             restore_inputs(s, c, con, work.saved)
-        return stage, code, w, i, -1, np.int64(0)
-    status, fw, fk, fb, needed = step_worlds(m, s, c, con, pairs, n, o, work)
+        return stage, code, w, i, np.int64(-1), np.int64(0)
+    status, fw, fk, fb, needed = step_worlds(box, stages, n, o)
     if alone:
         if status == STEP_OK:
             clear_applied(c)
@@ -115,7 +115,13 @@ def step_span(box, n, o, alone):
     return CALL_STEPPED, status, fw, fb, fk, needed
 
 
-@noalloc
+def step_span_signature(box, o):
+    """The Numba argument types of ``step_span`` for the box ``box`` and options ``o``."""
+    return (box._numba_type_, typeof(StageAddresses(*[0] * len(StageAddresses._fields))),
+            types.int64, typeof(o), types.boolean)
+
+
+@noalloc(inline="always")
 def save_inputs(s, c, con, saved):
     """Copy what a call may change into ``saved`` (``work.Saved``, the same worlds): the
     state, each world's live contacts, and the four control arrays the preparation writes
@@ -126,7 +132,7 @@ def save_inputs(s, c, con, saved):
     _copy_controls(saved, c)
 
 
-@noalloc
+@noalloc(inline="always")
 def restore_inputs(s, c, con, saved):
     """Undo a failed call: everything ``save_inputs`` copied, put back."""
     assign_arrays(s, saved.state)
@@ -154,6 +160,15 @@ def _copy_controls(dst, src):
 
 
 @njit(cache=True)
+def make_step_box(m, s, c, con, pairs, ball, o):
+    """``box_step_args`` with a new scratch for these arrays and options ``o``
+    (``work.make_step_work``): made in one call, so the scratch never crosses into Python
+    (each crossing compiles code for every one of its arrays), and with both inlined
+    (a call passing the namedtuples compiles for seconds, for their ~1,200 fields)."""
+    return box_step_args(m, s, c, con, pairs, ball, make_step_work(m, s, c, con, o))
+
+
+@njit(cache=True, inline="always")
 def box_step_args(m, s, c, con, pairs, ball, work):
     """What ``step_span`` takes, the tuple (m, s, c, con, pairs, ball, work), in one
     ``ArgBox``: it crosses over as one object and holds the very same arrays (writes on

@@ -19,7 +19,7 @@ as they were (``sleep.py``).
 import numpy as np
 from numba import njit
 
-from .._jit import noalloc
+from .._jit import allocating, noalloc
 
 from ..math.quat import quat_mul, quat_rotate
 from ..model.types import CONVEX, DYNAMIC, PLANE, STATIC
@@ -294,7 +294,7 @@ def _feature_taken(con, count, n, feature):
     return False
 
 
-@njit(cache=True)
+@allocating
 def collide_world(m, pos, quat, gpos, gquat, aabb_lo, aabb_hi, pairs, con, prev_count, prev,
                   world_margin, broadphase, listed, rest, sleep_time):
     """Contacts of one world, written into ``con`` (a ContactArrays view of this world).

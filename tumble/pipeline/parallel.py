@@ -33,15 +33,15 @@ leading axis is the world, so state fields added later need no change here -- as
 the step treats each world on its own, without decisions taken over the whole batch.
 """
 import numpy as np
-from numba import get_num_threads, njit, prange, typeof, types
+from numba import get_num_threads, njit, prange
 from numba.typed import List
 
 from .._jit import ArgBox, call_compiled, compiled_address, worlds_view
 from .call import (CALL_BAD_DRIVE, CALL_BAD_STATE, CALL_NEW_WORK, CALL_STEPPED,
-                   box_step_args, clear_applied, restore_inputs, step_span)
+                   clear_applied, make_step_box, restore_inputs, step_span,
+                   step_span_signature)
 from .checks import DRIVE_ZERO_BODY_QUAT
-from .step import STEP_OK
-from .work import make_step_work
+from .step import STEP_OK, stage_addresses
 
 # Columns of each span's outcome in step_boxed_parallel.
 _STAGE, _CODE, _WORLD, _INDEX, _STEP, _NEEDED, _SAVED = range(7)
@@ -61,7 +61,7 @@ def span_bounds(nworld, nspan, j):
 
 @njit(cache=True)
 def make_spans(m, s, c, con, pairs, ball, o, nspan):
-    """A typed list of one ``call.box_step_args`` per span of the worlds of ``s``
+    """A typed list of one ``call.make_step_box`` per span of the worlds of ``s``
     (``span_bounds``): views of the span's slice of the state, controls and contacts, with
     a pair buffer the size of ``pairs`` and a ``StepWork`` made for the span, both its
     own. (Views of a C-ordered array's leading axis are of the array's own type, so the
@@ -71,8 +71,7 @@ def make_spans(m, s, c, con, pairs, ball, o, nspan):
     for j in range(nspan):
         w0, w1 = span_bounds(nw, nspan, j)
         sv, cv, conv = worlds_view(s, w0, w1), worlds_view(c, w0, w1), worlds_view(con, w0, w1)
-        spans.append(box_step_args(m, sv, cv, conv, np.zeros_like(pairs), ball,
-                                   make_step_work(m, sv, cv, conv, o)))
+        spans.append(make_step_box(m, sv, cv, conv, np.zeros_like(pairs), ball, o))
     return spans
 
 
@@ -83,21 +82,22 @@ def box_parallel_args(s, c, con, spans):
     return ArgBox((s, c, con, spans))
 
 
-def span_address(spans, o):
-    """The address of ``call.step_span``'s compiled code for the spans ``spans``
-    (``make_spans``) and options ``o``, compiled now if it is not yet: what
-    ``step_boxed_parallel`` calls on each thread."""
-    return compiled_address(step_span, (typeof(spans).item_type, types.int64, typeof(o),
-                                        types.boolean))
+def span_addresses(spans, o):
+    """The compiled code ``step_boxed_parallel`` calls on each thread for the spans
+    ``spans`` (``make_spans``) and options ``o``, compiled now if it is not yet: the
+    address of ``call.step_span``'s and the stages' (``step.stage_addresses``)."""
+    sig = step_span_signature(spans[0], o)
+    stages = stage_addresses(spans[0], o, meanwhile=[(step_span, sig)])
+    return compiled_address(step_span, sig), stages
 
 
 @njit(cache=True, parallel=True)
-def step_boxed_parallel(box, n, o, span):
+def step_boxed_parallel(box, n, o, span, stages):
     """``call.step_span`` for the whole batch with its spans of worlds spread over Numba's
     threads, on what ``box`` holds (``box_parallel_args``); ``span`` is the address of
-    ``call.step_span``'s compiled code for a span (``span_address``), called through it
-    rather than linked in: this function then compiles in seconds instead of emitting the
-    whole step once more.
+    ``call.step_span``'s compiled code for a span and ``stages`` the step's stages'
+    (``span_addresses``), called through it rather than linked in: this function then
+    compiles in seconds instead of emitting the whole step once more.
 
     Same result as ``call.step_span`` over all the worlds (``first_failure``), and
     CALL_NEW_WORK when a span's scratch does not fit.
@@ -109,7 +109,7 @@ def step_boxed_parallel(box, n, o, span):
         i = np.int64(j)         # prange's index is unsigned; the typed list takes a signed one
         w0 = span_bounds(nw, nspan, i)[0]
         stage, code, w, index, k, needed = call_compiled(
-            span, step_span, (spans[i], n, o, np.bool_(False)))
+            span, step_span, (spans[i], stages, n, o, np.bool_(False)))
         if w >= 0:
             w += w0
         out[i, _STAGE], out[i, _CODE], out[i, _WORLD], out[i, _INDEX] = stage, code, w, index

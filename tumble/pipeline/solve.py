@@ -19,7 +19,7 @@ character that gets up from the heap is solved exactly again at once.
 import numpy as np
 from numba import njit
 
-from .._jit import noalloc
+from .._jit import allocating, noalloc
 from .arrays import CONTACT_LCP, CONTACT_PENALTY, CONTACT_PGS, SOLVER_PGS
 from .solvers.direct import solve_direct
 from .solvers.mlcp import FAST_GUESS_FAILED, FAST_NOT_HANDLED, guess_on_tree_fast, solve_mlcp
@@ -31,7 +31,7 @@ from .solvers.tree import make_plan_cache, plan_capacity
 LEMKE_BACKOFF_MAX = 128
 
 
-@njit(cache=True)
+@allocating
 def solve_rows(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o, caches, backoff,
                fast_status=FAST_NOT_HANDLED):
     """Solve rows ``[0, nrow)`` (``ncon`` contacts among them) with the method the options

@@ -1,41 +1,60 @@
 """The step: every stage of the pipeline, in order, ``n`` times, in one compiled call.
 
-Each step of a world runs these stages, in this order (``step_worlds``):
+Each step of a world runs these stages, in this order (``step_worlds``), one compiled
+function each (the ``*_stage`` functions below, named after ``arrays.STAGES``):
 
-    collide.py            contacts: broad phase, filtering, narrow phase
-    sleep.py              islands at rest put to sleep (when sleep_time is set)
-    forces.py             gravity + applied forces and torques
-    actuators.py          explicit (or stable) PD servos, joint torques, MJCF actuators
-    contacts/penalty.py   spring-damper contact forces (contact="penalty")
-    integrate.py          velocities: Newton-Euler, gyroscopic term explicit or implicit
-    joints/rows.py        constraint rows of every joint (ERP/CFM, limits, motors, servos)
-    actuators.py          implicit PD rows pulling bodies to targets (hand of god)
-    contacts/rows.py      normal, friction (and spin-friction) rows of every contact
-    solve.py              impulses that satisfy the rows (solvers/); constrained velocities
-    joints/rows.py        each joint's force and torque on its child (last step only)
-    integrate.py          positions and orientations with the new velocities
-    stabilize.py          joints projected back together (positions only)
-    integrate.py          divergence check
+    collide_stage               contacts: broad phase, filtering, narrow phase (collide.py);
+                                islands at rest put to sleep (sleep.py)
+    forces_stage                gravity + applied forces and torques (forces.py), explicit
+                                or stable PD servos, joint torques, MJCF actuators
+                                (actuators.py), spring-damper contacts (contacts/penalty.py)
+    integrate_velocities_stage  Newton-Euler, gyroscopic term explicit or implicit
+                                (integrate.py)
+    rows_stage                  constraint rows of every joint (joints/rows.py: ERP/CFM,
+                                limits, motors, servos), implicit PD rows pulling bodies to
+                                targets (actuators.py), contact rows (contacts/rows.py)
+    solve_stage                 impulses that satisfy the rows (solve.py, solvers/), the
+                                constrained velocities; each joint's force and torque on
+                                its child (last step only)
+    integrate_positions_stage   positions and orientations with the new velocities
+    project_stage               joints projected back together (stabilize.py)
+    check_stage                 divergence check (integrate.py)
 
-``step_worlds`` runs them ``n`` times for each world of a batch, then reads the joint
-coordinates (joints/rows.py). State arrays carry a leading world axis (nworld,
-nbody, ...); each world is stepped on its own views (``_jit.world_of``). If any world
-diverges (or a buffer is too small) the failing world, step and body are returned, and
-``call.py`` -- the checks of the inputs and the calls from Python -- undoes the whole call,
-every state, control and contact array restored as it came in.
+and after a world's last step ``coordinates_stage`` reads its joint coordinates
+(joints/rows.py). State arrays carry a leading world axis (nworld, nbody, ...); each world
+is stepped on its own views (``_jit.world_of``). If any world diverges (or a buffer is too
+small) the failing world, step and body are returned, and ``call.py`` -- the checks of the
+inputs and the calls from Python -- undoes the whole call, every state, control and
+contact array restored as it came in.
+
+Why one compiled function per stage, called through its address: Numba re-optimises and
+re-emits everything a compiled function calls when it compiles it cold, so a step that
+linked its stages in paid for the whole pipeline once more at each level above them
+(``step_worlds``, ``call.step_span``: 25 s each of a 324 s cold start). Each stage takes
+the step's box (``_jit.ArgBox`` of the model, state, controls, contacts, pairs, ball-joint
+marks and scratch; read by ``_jit.box_args`` without counting references), the world, the
+step, the step count and the options -- one signature for all of them -- and
+``step_worlds`` calls each through the address of its compiled code
+(``stage_addresses``, ``_jit.call_address``): every stage compiles once, on its own (in
+parallel processes on a cold start: ``tumble._compile``), and the step above them in a
+second. What a stage hands the next within a world's step (the contact count, the row
+count, ...) goes through ``work.carry``.
 
 With ``StepOptions.profile`` the step adds the time of each stage (``arrays.STAGES``) to
 ``StateArrays.stage_ticks``, in ``_jit.ticks`` units.
 """
-import numpy as np
-from numba import njit
+from collections import namedtuple
 
-from .._jit import noalloc, ticks, world_of
+import numpy as np
+from numba import njit, typeof, types
+
+from .._compile import compile_all
+from .._jit import box_args, call_address, compiled_address, noalloc, ticks, world_of
 from .actuators import (PD_EXPLICIT, PD_IMPLICIT, PD_STABLE, actuator_forces, body_servo_rows,
                         stable_servo_forces)
 from .arrays import (CONTACT_PENALTY, STAGE_CHECK, STAGE_COLLIDE, STAGE_COORDINATES,
                      STAGE_FORCES, STAGE_INTEGRATE_POSITIONS, STAGE_INTEGRATE_VELOCITIES,
-                     STAGE_PROJECT, STAGE_ROWS, STAGE_SOLVE)
+                     STAGE_PROJECT, STAGE_ROWS, STAGE_SOLVE, STAGES)
 from .collide import COLLIDE_OK, COLLIDE_PAIRS_FULL, collide_listed, collide_world
 from .contacts.arrays import copy_contact, pair_before
 from .contacts.pairs import ROWS_SPIN
@@ -51,7 +70,13 @@ from .sleep import freeze, sleep_islands
 from .solvers.mlcp import FAST_SOLVED
 from .stabilize import project_joints
 
+from .work import (CARRY_ASLEEP, CARRY_EXPLICIT_DRIVES, CARRY_NCON, CARRY_NEEDED, CARRY_NROW,
+                   CARRY_STABLE_PD)
+
 STEP_OK, STEP_DIVERGED, STEP_MORE_PAIRS, STEP_MORE_CONTACTS = 0, 1, 2, 3
+
+# What every stage returns (declared to ``_jit.call_address``).
+_RESULT = types.int64
 
 
 @njit(cache=True, inline="always")
@@ -70,11 +95,20 @@ def _lap(o, stage_ticks, stage, t0):
     return t1
 
 
-# The stages below take the namedtuples whole: they allocate nothing, so a call costs no
-# reference counting (``_jit.noalloc``). The three stages that may allocate (the general
-# broad phase, stable PD's solve, the exact solve) are called from ``step_worlds`` with the
-# arrays it unpacked once per world, since an inlined helper taking the namedtuples would
-# count a reference to each of their ~120 arrays at every step.
+@njit(cache=True, inline="always")
+def _world(box, w):
+    """The model, world ``w``'s views of the state, controls and contacts, the pair buffer
+    and the scratch, from the step's box (borrowed: inlined into ``noalloc`` stages)."""
+    m, s, c, con, pairs, ball, work = box_args(box)
+    return m, world_of(s, w), world_of(c, w), world_of(con, w), pairs, work
+
+
+@njit(cache=True, inline="always")
+def _drive(cw):
+    """World ``cw``'s joint drive inputs (``JointDrive``)."""
+    return JointDrive(cw.motor_target, cw.pd_kp, cw.pd_kd, cw.pd_max, cw.pd_target_quat,
+                      cw.pd_target_q, cw.pd_target_qd, cw.joint_applied)
+
 
 @noalloc
 def keep_previous_contacts(s, con, prev, sleeping):
@@ -100,172 +134,332 @@ def keep_previous_contacts(s, con, prev, sleeping):
         copy_contact(con, src, prev, q, sleeping)
 
 
-@noalloc
-def find_listed_contacts(m, s, con, pairs, o, work):
-    """Collide, for a model whose geom pairs that may touch are few and all primitives
-    (``work.listed_primitive``): their boxes tested, then the narrow phase."""
-    return collide_listed(m, s.body_pos, s.body_quat, work.gpos, work.gquat, work.aabb_lo,
-                          work.aabb_hi, pairs, con, s.contact_count[0], work.prev,
-                          o.contact_margin, work.listed, s.body_rest, o.sleep_time)
-
+# The stages. Each takes (box, w, k, n, o): the step's box, the world, the step (of n) and
+# the options; returns STEP_OK or what stops the step, as an int64 (``step_worlds`` calls
+# them declared so: ``stage_addresses`` checks). They allocate nothing (``noalloc``);
+# the kernels that may (the general broad phase, stable PD, the exact solve) are
+# ``_jit.allocating`` and count their own references.
 
 @noalloc
-def add_forces(m, s, c, con, ncon, drive, o, work, explicit_drives):
-    """Forces: gravity and applied loads, explicit actuation (``explicit_drives``) and
-    penalty contacts, summed into ``work.force`` and ``work.torque``."""
-    force, torque = work.force, work.torque
-    accumulate_forces(m, c.applied_force, c.applied_torque, force, torque)
-    if explicit_drives:
-        actuator_forces(m, s.body_pos, s.body_quat, s.body_vel, s.body_angvel, drive, c.ctrl,
-                        o.pd_mode, force, torque)
-    if o.contact == CONTACT_PENALTY and ncon > 0:
-        penalty_forces(m, s.body_pos, s.body_quat, s.body_vel, s.body_angvel, con, ncon,
-                       o.penalty_k, o.penalty_c, o.v_slip, o.dt,
-                       work.rows_per_contact == ROWS_SPIN, force, torque)
+def collide_stage(box, w, k, n, o):
+    """Contacts of world ``w`` (``work.carry[CARRY_NCON]`` of them to treat), and islands
+    at rest put to sleep. STEP_MORE_PAIRS or STEP_MORE_CONTACTS when a buffer is too small
+    (the size needed in ``work.carry[CARRY_NEEDED]``)."""
+    m, sw, cw, conw, pairs, work = _world(box, w)
+    ncon = np.int64(0)
+    if m.geom_type.shape[0] > 1:
+        keep_previous_contacts(sw, conw, work.prev, o.sleep_time > 0.0)
+        pos, quat = sw.body_pos, sw.body_quat
+        if work.listed_primitive:
+            code, ncon = collide_listed(m, pos, quat, work.gpos, work.gquat, work.aabb_lo,
+                                        work.aabb_hi, pairs, conw, sw.contact_count[0],
+                                        work.prev, o.contact_margin, work.listed,
+                                        sw.body_rest, o.sleep_time)
+        else:
+            code, ncon = collide_world(m, pos, quat, work.gpos, work.gquat, work.aabb_lo,
+                                       work.aabb_hi, pairs, conw, sw.contact_count[0],
+                                       work.prev, o.contact_margin, o.broadphase,
+                                       work.listed, sw.body_rest, o.sleep_time)
+        if code != COLLIDE_OK:
+            work.carry[CARRY_NEEDED] = ncon
+            return np.int64(STEP_MORE_PAIRS if code == COLLIDE_PAIRS_FULL
+                            else STEP_MORE_CONTACTS)
+        sw.contact_count[0] = ncon
+    # sleep: contacts with an awake body first, the ncon of them the step treats
+    asleep = np.int64(0)
+    if o.sleep_time > 0.0:
+        ncon, asleep = _sleep(box, w, o, ncon)
+    work.carry[CARRY_NCON] = ncon
+    work.carry[CARRY_ASLEEP] = asleep
+    return np.int64(STEP_OK)
 
 
 @noalloc
-def build_rows(m, s, c, con, ncon, nrow, drive, o, work):
-    """Rows: the joints' (warm-started from last step's impulses), six per servoed body,
-    then the contacts', laid out in that order in ``work.rows`` and ``work.imp``; and the
-    world inverse inertia the solvers take."""
-    njrow = s.row_impulse.shape[0]
+def forces_stage(box, w, k, n, o):
+    """Forces on world ``w``: gravity and applied loads, explicit actuation and penalty
+    contacts summed into ``work.force`` and ``work.torque``; stable PD's servo forces."""
+    m, sw, cw, conw, pairs, work = _world(box, w)
+    accumulate_forces(m, cw.applied_force, cw.applied_torque, work.force, work.torque)
+    if work.carry[CARRY_EXPLICIT_DRIVES] != 0:
+        _explicit_forces(box, w, o)
+    if o.contact == CONTACT_PENALTY and work.carry[CARRY_NCON] > 0:
+        _penalty_forces(box, w, o, work.carry[CARRY_NCON])
+    if work.carry[CARRY_STABLE_PD] != 0:
+        _stable_pd_forces(box, w, o)
+    return np.int64(STEP_OK)
+
+
+@noalloc
+def integrate_velocities_stage(box, w, k, n, o):
+    """World ``w``'s velocities under the forces (sleeping bodies kept still)."""
+    m, sw, cw, conw, pairs, work = _world(box, w)
+    integrate_velocities(m, sw.body_quat, sw.body_vel, sw.body_angvel, work.force,
+                         work.torque, o.dt, o.gyroscopic)
+    if work.carry[CARRY_ASLEEP] > 0:
+        freeze(sw.body_vel, sw.body_angvel, work.awake, m)
+    return np.int64(STEP_OK)
+
+
+@noalloc
+def rows_stage(box, w, k, n, o):
+    """Rows of world ``w`` (``work.carry[CARRY_NROW]`` of them): the joints' (warm-started
+    from last step's impulses), six per servoed body, then the contacts', laid out in that
+    order in ``work.rows`` and ``work.imp``; and the world inverse inertia the solvers
+    take."""
+    m, sw, cw, conw, pairs, work = _world(box, w)
+    ncon = work.carry[CARRY_NCON]
+    njrow = sw.row_impulse.shape[0]
     nfix = njrow + 6 * work.servoed.shape[0]
-    pos, quat, vel, angvel = s.body_pos, s.body_quat, s.body_vel, s.body_angvel
+    nrow = nfix + (work.rows_per_contact * ncon if o.contact != CONTACT_PENALTY else 0)
+    work.carry[CARRY_NROW] = nrow
+    if nrow == 0:
+        return np.int64(STEP_OK)
+    pos, quat, vel, angvel = sw.body_pos, sw.body_quat, sw.body_vel, sw.body_angvel
     rows, imp = work.rows, work.imp
     if njrow > 0:
-        build_joint_rows(m, pos, quat, vel, angvel, drive, o.dt, o.erp, o.cfm, rows,
+        build_joint_rows(m, pos, quat, vel, angvel, _drive(cw), o.dt, o.erp, o.cfm, rows,
                          o.pd_mode == PD_IMPLICIT)
         for r in range(njrow):
-            imp[r] = s.row_impulse[r]
+            imp[r] = sw.row_impulse[r]
     if nfix > njrow:
-        body_servo_rows(pos, quat, work.servoed, c.body_servo, c.body_target_pos,
-                        c.body_target_quat, c.body_target_vel, c.body_target_angvel, o.dt,
-                        rows, njrow)
-        for r in range(njrow, nfix):
-            imp[r] = 0.0
+        _body_servo_rows(box, w, o, njrow, nfix)
     if nrow > nfix:
-        build_contact_rows(m, pos, vel, angvel, con, ncon, nfix, work.rows_per_contact, o.dt,
+        build_contact_rows(m, pos, vel, angvel, conw, ncon, nfix, work.rows_per_contact, o.dt,
                            o.contact_erp, o.contact_cfm, o.slop, o.bounce_threshold, rows, imp)
     world_inverse_inertia(m, quat, work.inv_inertia)
+    return np.int64(STEP_OK)
 
 
 @noalloc
-def keep_impulses(m, s, con, ncon, nrow, o, work, last):
-    """Solve, last part: the joints' impulses kept for the next step's warm start, the
-    contacts' stored with them, and on the ``last`` step of the call each joint's
-    reaction on its child."""
-    njrow = s.row_impulse.shape[0]
+def solve_stage(box, w, k, n, o):
+    """Impulses for world ``w``'s rows and the velocities they make; the joints' impulses
+    kept for the next step's warm start, the contacts' stored with them, and on the last
+    step of the call (``k == n - 1``) each joint's reaction on its child."""
+    m, sw, cw, conw, pairs, work = _world(box, w)
+    nrow, ncon = work.carry[CARRY_NROW], work.carry[CARRY_NCON]
+    if nrow == 0:
+        return np.int64(STEP_OK)
+    vel, angvel = sw.body_vel, sw.body_angvel
+    rows, imp, inv_inertia, caches = work.rows, work.imp, work.inv_inertia, work.caches
+    fast = solve_fast(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o, caches,
+                      work.fast)
+    if fast == FAST_SOLVED:
+        sw.lcp_backoff[0] = 0           # solved exactly: no back-off from Lemke
+        sw.lcp_backoff[1] = 0
+    else:
+        _solve_rows(box, w, o, nrow, ncon, fast)
+    njrow = sw.row_impulse.shape[0]
     nfix = njrow + 6 * work.servoed.shape[0]
     if njrow > 0:
         for r in range(njrow):
-            s.row_impulse[r] = work.imp[r]
-        if last:            # what users read is the last step's: none before it
-            joint_reactions(m, s.body_pos, s.body_quat, work.rows, s.row_impulse, o.dt,
-                            s.joint_force, s.joint_torque)
+            sw.row_impulse[r] = imp[r]
+        if k == n - 1:            # what users read is the last step's: none before it
+            joint_reactions(m, sw.body_pos, sw.body_quat, rows, sw.row_impulse, o.dt,
+                            sw.joint_force, sw.joint_torque)
     if nrow > nfix:
-        store_contact_impulses(con, ncon, nfix, work.rows_per_contact, work.imp)
+        store_contact_impulses(conw, ncon, nfix, work.rows_per_contact, imp)
+    if work.carry[CARRY_ASLEEP] > 0:
+        freeze(vel, angvel, work.awake, m)
+    return np.int64(STEP_OK)
 
 
-@njit(cache=True)
-def step_worlds(m, s, c, con, pairs, n, o, work):
-    """Advance every world of state ``s`` by ``n`` steps.
+@noalloc
+def integrate_positions_stage(box, w, k, n, o):
+    """World ``w``'s positions and orientations with its new velocities."""
+    m, sw, cw, conw, pairs, work = _world(box, w)
+    integrate_positions(m, sw.body_pos, sw.body_quat, sw.body_vel, sw.body_angvel, o.dt,
+                        o.quat_integration)
+    return np.int64(STEP_OK)
 
-    m : ModelArrays; s : StateArrays, c : ControlArrays and con : ContactArrays (``s`` and
-    ``con`` modified in place); pairs : (P, 2) broad-phase buffer; o : StepOptions; work :
-    StepWork that fits (``work.make_step_work``, ``work.work_fits``).
+
+@noalloc
+def project_stage(box, w, k, n, o):
+    """World ``w``'s joints projected back together (positions only), if asked for."""
+    m, sw, cw, conw, pairs, work = _world(box, w)
+    if sw.row_impulse.shape[0] > 0 and o.projection > 0:
+        project_joints(m, sw.body_pos, sw.body_quat, work.rows, work.inv_inertia,
+                       o.projection, o.projection_tolerance, work.projection)
+    return np.int64(STEP_OK)
+
+
+@noalloc
+def check_stage(box, w, k, n, o):
+    """The first body of world ``w`` whose state is not finite or ran away, or -1."""
+    m, sw, cw, conw, pairs, work = _world(box, w)
+    return np.int64(first_bad_body(sw.body_pos, sw.body_quat, sw.body_vel, sw.body_angvel,
+                                   o.divergence_limit))
+
+
+@noalloc
+def coordinates_stage(box, w, k, n, o):
+    """World ``w``'s joint coordinates from its bodies (after its last step)."""
+    m, sw, cw, conw, pairs, work = _world(box, w)
+    joint_coordinates(m, sw.body_pos, sw.body_quat, sw.body_vel, sw.body_angvel, sw.joint_q,
+                      sw.joint_qd, sw.joint_qrel)
+    return np.int64(STEP_OK)
+
+
+# The stages' less common paths, each reading the box itself: what a branch passes is then
+# read from the box only when the branch runs. (Read once at a stage's start, the ~700
+# values stable PD's call takes were loaded on every step of a world without it: 2% of
+# the PD ragdoll's step.)
+
+@noalloc
+def _sleep(box, w, o, ncon):
+    """Collide, last part: islands of world ``w`` at rest put to sleep, their contacts
+    moved behind the ``ncon`` of awake ones. Returns (awake contacts, sleeping bodies)."""
+    m, sw, cw, conw, pairs, work = _world(box, w)
+    return sleep_islands(m, sw.body_vel, sw.body_angvel, sw.body_rest, cw, conw, ncon, o,
+                         work.island, work.island_rest, work.awake, work.prev)
+
+
+@noalloc
+def _explicit_forces(box, w, o):
+    """Forces: explicit PD servos, joint torques and MJCF actuators of world ``w``."""
+    m, sw, cw, conw, pairs, work = _world(box, w)
+    actuator_forces(m, sw.body_pos, sw.body_quat, sw.body_vel, sw.body_angvel, _drive(cw),
+                    cw.ctrl, o.pd_mode, work.force, work.torque)
+    return 0
+
+
+@noalloc
+def _penalty_forces(box, w, o, ncon):
+    """Forces: spring-damper contacts of world ``w`` (its first ``ncon``)."""
+    m, sw, cw, conw, pairs, work = _world(box, w)
+    penalty_forces(m, sw.body_pos, sw.body_quat, sw.body_vel, sw.body_angvel, conw, ncon,
+                   o.penalty_k, o.penalty_c, o.v_slip, o.dt,
+                   work.rows_per_contact == ROWS_SPIN, work.force, work.torque)
+    return 0
+
+
+@noalloc
+def _stable_pd_forces(box, w, o):
+    """Forces: stable PD's servo forces of world ``w`` (a solve of its joints ahead)."""
+    m, sw, cw, conw, pairs, work = _world(box, w)
+    world_inverse_inertia(m, sw.body_quat, work.inv_inertia)
+    stable_servo_forces(m, sw.body_pos, sw.body_quat, sw.body_vel, sw.body_angvel,
+                        _drive(cw), o.dt, o.erp, o.cfm, o.gyroscopic, o.tolerance, work.rows,
+                        work.imp, work.vel_pred, work.angvel_pred, work.inv_inertia,
+                        work.force, work.torque, work.caches[0])
+    return 0
+
+
+@noalloc
+def _body_servo_rows(box, w, o, njrow, nfix):
+    """Rows: six per servoed body of world ``w``, rows ``[njrow, nfix)``, impulses zero."""
+    m, sw, cw, conw, pairs, work = _world(box, w)
+    body_servo_rows(sw.body_pos, sw.body_quat, work.servoed, cw.body_servo,
+                    cw.body_target_pos, cw.body_target_quat, cw.body_target_vel,
+                    cw.body_target_angvel, o.dt, work.rows, njrow)
+    for r in range(njrow, nfix):
+        work.imp[r] = 0.0
+    return 0
+
+
+@noalloc
+def _solve_rows(box, w, o, nrow, ncon, fast):
+    """Solve: world ``w``'s rows by the method the options pick (``solve.solve_rows``),
+    when ``solve_fast`` did not (its status ``fast``); PGS standing in for Lemke counted."""
+    m, sw, cw, conw, pairs, work = _world(box, w)
+    sw.lcp_fallbacks[0] += solve_rows(m, work.rows, nrow, ncon, work.inv_inertia,
+                                      sw.body_vel, sw.body_angvel, work.imp, o, work.caches,
+                                      sw.lcp_backoff, fast)
+    return 0
+
+
+#: The stage functions in the order of ``arrays.STAGES``.
+STAGE_FUNCTIONS = (collide_stage, forces_stage, integrate_velocities_stage, rows_stage,
+                   solve_stage, integrate_positions_stage, project_stage, check_stage,
+                   coordinates_stage)
+
+# Roughly what each stage costs to compile cold, in seconds (``bench/profile_compile.py``
+# on the ragdoll, 2026-12-07): how ``_compile.compile_all`` shares them among processes.
+_COMPILE_COST = (90.0, 50.0, 3.0, 5.0, 80.0, 2.0, 8.0, 1.0, 2.0)
+
+#: The addresses of the stages' compiled code (int), one field per ``arrays.STAGES``.
+StageAddresses = namedtuple("StageAddresses", STAGES)
+
+
+def stage_signature(box, o):
+    """The Numba argument types every stage takes for the box ``box`` and options ``o``."""
+    return (box._numba_type_, types.int64, types.int64, types.int64, typeof(o))
+
+
+def stage_addresses(box, o, compiled_only=False, meanwhile=()):
+    """The stages' compiled code for the box ``box`` (``call.box_step_args``) and options
+    ``o``: a ``StageAddresses`` for ``step_worlds``. Stages this process has no code for
+    yet are loaded from Numba's cache or compiled now, in parallel processes
+    (``_compile.compile_all``), and ``meanwhile`` -- (dispatcher, argtypes) pairs, e.g.
+    the step around the stages -- is compiled here while they are; with
+    ``compiled_only``, None instead of compiling. Valid while the process lives."""
+    sig = stage_signature(box, o)
+    if compiled_only and any(sig not in f.overloads for f in STAGE_FUNCTIONS):
+        return None
+    compile_all([(f, sig, cost) for f, cost in zip(STAGE_FUNCTIONS, _COMPILE_COST)],
+                [(d, argtypes, 0.0) for d, argtypes in meanwhile])
+    addresses = StageAddresses(*(compiled_address(f, sig) for f in STAGE_FUNCTIONS))
+    for f in STAGE_FUNCTIONS:       # step_worlds calls them as returning _RESULT
+        if f.overloads[sig].signature.return_type != _RESULT:
+            raise TypeError(f"{f.__name__} returns {f.overloads[sig].signature.return_type}, "
+                            f"not {_RESULT}")
+    return addresses
+
+
+@njit(cache=True, inline="always")
+def _any_nonzero(a):
+    """Whether any entry of the array ``a`` is nonzero (gains are never negative: checked
+    on the way in), without the temporary array ``np.any(a != 0)`` would make."""
+    for v in a.reshape(a.size):
+        if v != 0.0:
+            return True
+    return False
+
+
+@noalloc
+def step_worlds(box, stages, n, o):
+    """Advance every world of the box ``box`` (``call.box_step_args``: the model, state,
+    controls, contacts, pairs, ball-joint marks and a scratch ``StepWork`` that fits) by
+    ``n`` steps, the state and contacts modified in place; ``stages`` : the stages'
+    compiled code (``stage_addresses``); o : StepOptions.
+
     Returns (status, world, step, body, needed): status STEP_OK; STEP_DIVERGED with where
     the state first became non-finite or ran away; or STEP_MORE_PAIRS / STEP_MORE_CONTACTS
     with the buffer size needed. On a failure it returns at once, the failing world
     mid-step: the caller restores what it saved (``call.py``).
-
-    Each step of a world (a substep) runs the stages in order: collide, sleep, forces,
-    integrate velocities, rows, solve, integrate positions, project joints, divergence
-    check; after the last, the joint coordinates.
     """
-    ng = m.geom_type.shape[0]
-    njrow = s.row_impulse.shape[1]
-    rows, imp, inv_inertia, caches = work.rows, work.imp, work.inv_inertia, work.caches
+    m, s, c, con, pairs, ball, work = box_args(box)
     # explicit actuator work only when something could push: a servo off the implicit
     # path, an applied joint torque or an MJCF actuator
-    servoed_joints = np.any(c.pd_kp > 0.0) or np.any(c.pd_kd > 0.0)
-    explicit_drives = m.act_joint.shape[0] > 0 or np.any(c.joint_applied != 0.0) or (
-        o.pd_mode == PD_EXPLICIT and servoed_joints)
-    stable_pd = servoed_joints and o.pd_mode == PD_STABLE
+    servoed_joints = _any_nonzero(c.pd_kp) or _any_nonzero(c.pd_kd)
+    work.carry[CARRY_EXPLICIT_DRIVES] = m.act_joint.shape[0] > 0 or _any_nonzero(
+        c.joint_applied) or (o.pd_mode == PD_EXPLICIT and servoed_joints)
+    work.carry[CARRY_STABLE_PD] = servoed_joints and o.pd_mode == PD_STABLE
     for w in range(s.body_pos.shape[0]):
-        sw, cw, conw = world_of(s, w), world_of(c, w), world_of(con, w)
-        pos, quat, vel, angvel = sw.body_pos, sw.body_quat, sw.body_vel, sw.body_angvel
-        drive = JointDrive(cw.motor_target, cw.pd_kp, cw.pd_kd, cw.pd_max, cw.pd_target_quat,
-                           cw.pd_target_q, cw.pd_target_qd, cw.joint_applied)
+        stage_ticks = s.stage_ticks[w]
         for k in range(n):
+            args = (box, w, k, n, o)
             t = _start(o)
-            # collide
-            ncon = np.int64(0)
-            if ng > 1:
-                keep_previous_contacts(sw, conw, work.prev, o.sleep_time > 0.0)
-                if work.listed_primitive:
-                    code, ncon = find_listed_contacts(m, sw, conw, pairs, o, work)
-                else:
-                    code, ncon = collide_world(m, pos, quat, work.gpos, work.gquat,
-                                               work.aabb_lo, work.aabb_hi, pairs, conw,
-                                               sw.contact_count[0], work.prev,
-                                               o.contact_margin, o.broadphase, work.listed,
-                                               sw.body_rest, o.sleep_time)
-                if code != COLLIDE_OK:
-                    return (STEP_MORE_PAIRS if code == COLLIDE_PAIRS_FULL
-                            else STEP_MORE_CONTACTS), w, k, -1, ncon
-                sw.contact_count[0] = ncon
-            # sleep: contacts with an awake body first, the ncon of them the step treats
-            asleep = 0
-            if o.sleep_time > 0.0:
-                ncon, asleep = sleep_islands(m, vel, angvel, sw.body_rest, cw, conw, ncon, o,
-                                             work.island, work.island_rest, work.awake,
-                                             work.prev)
-            t = _lap(o, sw.stage_ticks, STAGE_COLLIDE, t)
-            # forces
-            add_forces(m, sw, cw, conw, ncon, drive, o, work, explicit_drives)
-            if stable_pd:
-                world_inverse_inertia(m, quat, inv_inertia)
-                stable_servo_forces(m, pos, quat, vel, angvel, drive, o.dt, o.erp, o.cfm,
-                                    o.gyroscopic, o.tolerance, rows, imp, work.vel_pred,
-                                    work.angvel_pred, inv_inertia, work.force, work.torque,
-                                    caches[0])
-            t = _lap(o, sw.stage_ticks, STAGE_FORCES, t)
-            integrate_velocities(m, quat, vel, angvel, work.force, work.torque, o.dt,
-                                 o.gyroscopic)
-            if asleep > 0:
-                freeze(vel, angvel, work.awake, m)
-            t = _lap(o, sw.stage_ticks, STAGE_INTEGRATE_VELOCITIES, t)
-            nrow = njrow + 6 * work.servoed.shape[0] + (
-                work.rows_per_contact * ncon if o.contact != CONTACT_PENALTY else 0)
-            if nrow > 0:
-                build_rows(m, sw, cw, conw, ncon, nrow, drive, o, work)
-                t = _lap(o, sw.stage_ticks, STAGE_ROWS, t)
-                # solve
-                fast = solve_fast(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o,
-                                  caches, work.fast)
-                if fast == FAST_SOLVED:
-                    sw.lcp_backoff[0] = 0           # solved exactly: no back-off from Lemke
-                    sw.lcp_backoff[1] = 0
-                else:
-                    sw.lcp_fallbacks[0] += solve_rows(m, rows, nrow, ncon, inv_inertia, vel,
-                                                      angvel, imp, o, caches,
-                                                      sw.lcp_backoff, fast)
-                keep_impulses(m, sw, conw, ncon, nrow, o, work, k == n - 1)
-                if asleep > 0:
-                    freeze(vel, angvel, work.awake, m)
-                t = _lap(o, sw.stage_ticks, STAGE_SOLVE, t)
-            integrate_positions(m, pos, quat, vel, angvel, o.dt, o.quat_integration)
-            t = _lap(o, sw.stage_ticks, STAGE_INTEGRATE_POSITIONS, t)
-            if njrow > 0 and o.projection > 0:
-                project_joints(m, pos, quat, rows, inv_inertia, o.projection,
-                               o.projection_tolerance, work.projection)
-            t = _lap(o, sw.stage_ticks, STAGE_PROJECT, t)
-            bad = first_bad_body(pos, quat, vel, angvel, o.divergence_limit)
-            _lap(o, sw.stage_ticks, STAGE_CHECK, t)
+            status = call_address(stages[STAGE_COLLIDE], _RESULT, args)
+            if status != STEP_OK:
+                return status, w, k, np.int64(-1), work.carry[CARRY_NEEDED]
+            t = _lap(o, stage_ticks, STAGE_COLLIDE, t)
+            call_address(stages[STAGE_FORCES], _RESULT, args)
+            t = _lap(o, stage_ticks, STAGE_FORCES, t)
+            call_address(stages[STAGE_INTEGRATE_VELOCITIES], _RESULT, args)
+            t = _lap(o, stage_ticks, STAGE_INTEGRATE_VELOCITIES, t)
+            call_address(stages[STAGE_ROWS], _RESULT, args)
+            t = _lap(o, stage_ticks, STAGE_ROWS, t)
+            call_address(stages[STAGE_SOLVE], _RESULT, args)
+            t = _lap(o, stage_ticks, STAGE_SOLVE, t)
+            call_address(stages[STAGE_INTEGRATE_POSITIONS], _RESULT, args)
+            t = _lap(o, stage_ticks, STAGE_INTEGRATE_POSITIONS, t)
+            call_address(stages[STAGE_PROJECT], _RESULT, args)
+            t = _lap(o, stage_ticks, STAGE_PROJECT, t)
+            bad = call_address(stages[STAGE_CHECK], _RESULT, args)
+            _lap(o, stage_ticks, STAGE_CHECK, t)
             if bad >= 0:
                 return STEP_DIVERGED, w, k, bad, np.int64(0)
         t = _start(o)
-        joint_coordinates(m, pos, quat, vel, angvel, sw.joint_q, sw.joint_qd, sw.joint_qrel)
-        _lap(o, sw.stage_ticks, STAGE_COORDINATES, t)
-    return STEP_OK, -1, -1, -1, np.int64(0)
+        call_address(stages[STAGE_COORDINATES], _RESULT, (box, w, n - 1, n, o))
+        _lap(o, stage_ticks, STAGE_COORDINATES, t)
+    return STEP_OK, np.int64(-1), np.int64(-1), np.int64(-1), np.int64(0)

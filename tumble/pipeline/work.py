@@ -16,6 +16,12 @@ from .solvers.common import make_rows_nb
 from .solvers.mlcp import make_fast_scratch
 from .stabilize import projection_setup
 
+# Slots of ``StepWork.carry``: what one stage of the step hands the next within a world's
+# step (``step.py``), and what ``step_worlds`` works out once per call for the forces.
+(CARRY_NCON, CARRY_ASLEEP, CARRY_NROW, CARRY_NEEDED, CARRY_EXPLICIT_DRIVES,
+ CARRY_STABLE_PD) = range(6)
+CARRY_SLOTS = 6
+
 StepWork = namedtuple("StepWork", [
     "contact_capacity",   # int: contacts per world the contact arrays hold
     "row_capacity",       # int: rows laid out (joints, 6 per servoed body, contacts)
@@ -39,6 +45,7 @@ StepWork = namedtuple("StepWork", [
     "island_rest",  # (nbody,) s the least time at rest in each island
     "awake",        # (nbody,) bool the dynamic bodies of awake islands
     "saved",        # Saved: the call's inputs, restored if it fails (call.save_inputs)
+    "carry",        # (CARRY_SLOTS,) int64 what a stage hands the next (step.py)
 ])
 
 # What a step call may change, copied before it (the worlds' leading axis kept): the
@@ -48,7 +55,7 @@ Saved = namedtuple("Saved", ["state", "contacts", "pd_target_quat", "body_target
                              "pd_target_q", "pd_target_qd"])
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def make_step_work(m, s, c, con, o):
     """Scratch memory for stepping the worlds of state ``s`` with controls ``c``, contacts
     ``con`` and options ``o`` (the arrays of every world of a serial step, or views of
@@ -74,7 +81,8 @@ def make_step_work(m, s, c, con, o):
                     np.zeros(nb), np.ones(nb, np.bool_),
                     Saved(copy_arrays(s), copy_arrays(con), c.pd_target_quat.copy(),
                           c.body_target_quat.copy(), c.pd_target_q.copy(),
-                          c.pd_target_qd.copy()))
+                          c.pd_target_qd.copy()),
+                    np.zeros(CARRY_SLOTS, np.int64))
 
 
 @njit(cache=True, inline="always")
@@ -84,10 +92,11 @@ def _row_capacity(njrow, nservoed, nper, cap, o):
     return njrow + 6 * nservoed + (nper * cap if o.contact != CONTACT_PENALTY else 0)
 
 
-@noalloc
+@noalloc(inline="always")
 def work_fits(work, m, s, c, con, o):
     """Whether ``work`` (make_step_work) still fits the state, controls, contacts and
-    options."""
+    options. (Inlined: a call passing the namedtuples compiled for 4 s, for their ~1,200
+    fields.)"""
     if work.saved.state.body_pos.shape[0] != s.body_pos.shape[0]:
         return False
     njrow, cap, body_servo = s.row_impulse.shape[1], con.depth.shape[1], c.body_servo

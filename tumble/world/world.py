@@ -23,11 +23,10 @@ from ..pipeline.checks import (DRIVE_BAD_MAX, DRIVE_FIELDS, DRIVE_ZERO_BODY_QUAT
                                STATE_NONFINITE_VEL, STATE_ZERO_QUAT)
 from ..pipeline.contacts.arrays import make_contacts
 from ..pipeline.joints.rows import joint_coordinates
-from ..pipeline.parallel import (box_parallel_args, make_spans, span_address, span_count,
+from ..pipeline.parallel import (box_parallel_args, make_spans, span_addresses, span_count,
                                  step_boxed_parallel)
 from ..pipeline.step_free import box_free_args, is_free, step_free_boxed
-from ..pipeline.step import STEP_DIVERGED, STEP_MORE_CONTACTS, STEP_MORE_PAIRS
-from ..pipeline.work import make_step_work
+from ..pipeline.step import STEP_DIVERGED, STEP_MORE_CONTACTS, STEP_MORE_PAIRS, stage_addresses
 from .control import ControlMixin
 from .options import OPTION_NAMES, Options, penalty_parameters, step_options
 from .queries import QueryMixin
@@ -50,7 +49,7 @@ _DRIVE_NAMES = {"motor_target": "joint_motor_target", "joint_applied": "joint to
 
 def _drops_box(attr):
     """A World property kept in ``attr`` whose assignment drops what holds the old object's
-    arrays: the step's box (``World._box``, ``call.box_step_args``), the batch's spans
+    arrays: the step's box (``World._box``, ``call.make_step_box``), the batch's spans
     (``World._spans``, ``parallel.make_spans``) and their box (``World._parallel_box``)."""
     def get(world):
         return getattr(world, attr)
@@ -132,17 +131,19 @@ class World(StateMixin, ControlMixin, QueryMixin):
         self._state = make_state_arrays(self.nworld, model.nbody, model.njoint, model.nrow)
         self._control = make_control_arrays(self.nworld, model.nbody, model.njoint,
                                             model.nactuator)
-        self._box = None           # call.box_step_args of the arrays below, once made
+        self._box = None           # call.make_step_box of the arrays below (and the serial
+        #                            step's scratch, kept between calls), once made
         default = 8 * model.ngeom + 64
         self._contacts = make_contacts(self.nworld, _capacity(contact_capacity, default,
                                                               "contact_capacity"))
         self._pairs = np.zeros((_capacity(pair_capacity, default, "pair_capacity"), 2),
                                np.int32)
-        self._work = None          # scratch of the serial step, kept between calls
         self._spans = None         # the parallel step's boxes, one per span of worlds
         self._nspan = 0            # how many spans _spans has (one per thread)
         self._parallel_box = None  # parallel.box_parallel_args of the arrays, once made
         self._span_address = None  # call.step_span's compiled code, for the spans
+        self._span_stages = None   # the step's stages' compiled code, for the spans
+        self._stages = None        # step.stage_addresses for self._box
         self._parallel_entry = None  # step_boxed_parallel's compiled entry point
         self._entry = None         # step_span's compiled entry point, once called
         self._free_entry = None    # step_free_boxed's, once called (a free model)
@@ -154,7 +155,6 @@ class World(StateMixin, ControlMixin, QueryMixin):
     # The step's boxes hold these objects' arrays: replacing one drops them.
     _contacts = _drops_box("_contacts_arrays")
     _pairs = _drops_box("_pairs_buffer")
-    _work = _drops_box("_work_memory")
 
     def _prepare_step(self):
         """The serial step's scratch memory and compiled entry point, made now when an
@@ -164,14 +164,16 @@ class World(StateMixin, ControlMixin, QueryMixin):
         if self.parallel or not compiled_any(call.step_span):
             return
         o = self.step_options()
-        work = self._make_work(o)
-        box = self._make_box(work, compiled_only=True)
+        box = self._make_box(o, compiled_only=True)
         if box is None:
             return
-        entry = ENTRY_POINTS.get(call.step_span, self._serial_args(box, 1, o),
+        stages = stage_addresses(box, o, compiled_only=True)
+        if stages is None:
+            return
+        entry = ENTRY_POINTS.get(call.step_span, (box, stages, 1, o, True),
                                  compiled_only=True)
         if entry is not None:
-            self._work, self._box, self._entry = work, box, entry
+            self._box, self._stages, self._entry = box, stages, entry
 
     def _array(self, field):
         """The state or control array called ``field`` (``pipeline.arrays``)."""
@@ -372,7 +374,7 @@ class World(StateMixin, ControlMixin, QueryMixin):
             if stage == call.CALL_BAD_DRIVE:
                 raise self._drive_error(code, w, i)
             if stage == call.CALL_NEW_WORK:
-                self._work = self._spans = None
+                self._box = self._spans = None
             elif not self._grew_buffers(code, needed):
                 break
         if code == STEP_DIVERGED:
@@ -396,15 +398,12 @@ class World(StateMixin, ControlMixin, QueryMixin):
         point once known: Numba's dispatcher would spend more time matching types than a
         small world's step. Returns step_span's (stage, code, world, index, step,
         needed)."""
-        if self._work is None:
-            self._work = self._make_work(o)
         if self._box is None:
-            self._box = self._make_box(self._work)
-        return self._through_entry("_entry", call.step_span, self._serial_args(self._box, n, o))
-
-    def _serial_args(self, box, n, o):
-        """``call.step_span``'s arguments for a serial step: all the worlds, alone."""
-        return (box, n, o, True)
+            self._box = self._make_box(o)
+            self._stages = stage_addresses(self._box, o, meanwhile=[
+                (call.step_span, call.step_span_signature(self._box, o))])
+        return self._through_entry("_entry", call.step_span,
+                                   (self._box, self._stages, n, o, True))
 
     def _call_parallel(self, n, o):
         """``parallel.step_boxed_parallel`` on the arrays and each span's scratch held in
@@ -419,9 +418,10 @@ class World(StateMixin, ControlMixin, QueryMixin):
         if self._parallel_box is None:
             self._parallel_box = box_parallel_args(self._state, self._control, self._contacts,
                                                    self._spans)
-            self._span_address = span_address(self._spans, o)
+            self._span_address, self._span_stages = span_addresses(self._spans, o)
         return self._through_entry("_parallel_entry", step_boxed_parallel,
-                                   (self._parallel_box, n, o, self._span_address))
+                                   (self._parallel_box, n, o, self._span_address,
+                                    self._span_stages))
 
     def _call_free(self, n, o):
         """``step_free.step_free_boxed`` (a model with nothing to collide, constrain or
@@ -443,20 +443,13 @@ class World(StateMixin, ControlMixin, QueryMixin):
             return out
         return entry(*args)
 
-    def _make_work(self, o):
-        """The serial step's scratch memory (``work.make_step_work``), through its compiled
-        entry point once there is one."""
-        args = (self.model.arrays, self._state, self._control, self._contacts, o)
-        make = ENTRY_POINTS.get(make_step_work, args, compiled_only=True)
-        return (make or make_step_work)(*args)
-
-    def _make_box(self, work, compiled_only=False):
-        """``call.box_step_args`` of this world's arrays and ``work``, through its compiled
-        entry point once there is one; with ``compiled_only``, None when nothing is
-        compiled for these types yet."""
+    def _make_box(self, o, compiled_only=False):
+        """``call.make_step_box`` of this world's arrays (a new scratch for them and options
+        ``o``), through its compiled entry point once there is one; with
+        ``compiled_only``, None when nothing is compiled for these types yet."""
         args = (self.model.arrays, self._state, self._control, self._contacts, self._pairs,
-                self._ball_joints, work)
-        make = ENTRY_POINTS.get(call.box_step_args, args, compiled_only=compiled_only)
+                self._ball_joints, o)
+        make = ENTRY_POINTS.get(call.make_step_box, args, compiled_only=compiled_only)
         return None if make is None else make(*args)
 
     def _grew_buffers(self, status, needed):
