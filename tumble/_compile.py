@@ -62,7 +62,12 @@ def compile_all(jobs, local=()):
         i = loads.index(min(loads))
         shares[i].append(job)
         loads[i] += job[2]
-    workers = [_start_worker(share) for share in shares[1:] if share]
+    workers = []
+    for share in filter(None, shares[1:]):
+        try:
+            workers.append(_start_worker(share))
+        except OSError:              # no process to be had: this one compiles it all
+            shares[0].extend(share)
     try:
         for d, sig, _ in list(local) + shares[0]:
             d.compile(tuple(sig))

@@ -62,7 +62,12 @@ def test_dropping_solves_a_consistent_semidefinite_system(seed, n, rank):
 @given(seed=st.integers(0, 2**32 - 1), n=st.integers(2, 12), rank=st.integers(1, 5))
 def test_an_inconsistent_dropped_row_is_caught(seed, n, rank):
     rank = min(rank, n - 1)
-    A, _ = semidefinite(seed, n, rank)
+    A, rows = semidefinite(seed, n, rank)
+    # as above: a row within 1e-6 of depending on those before it leaves the dependent
+    # rows after it round-off pivots that may fall below zero (seed 10, n 10, rank 5:
+    # a relative pivot of 2e-7, then the factorisation reports -1)
+    pivots = relative_pivots(rows)
+    assume(np.all((pivots < 1e-20) | (pivots > 1e-4)))
     rng = np.random.default_rng(seed + 1)
     fac = np.zeros((n, n))
     assert cholesky_factor_dropping(A, n, fac, REDUNDANT) >= 1
