@@ -115,3 +115,39 @@ def test_chunking_does_not_change_a_bit(contact):
             np.testing.assert_array_equal(getattr(worlds[0].state_arrays, field),
                                           getattr(other.state_arrays, field), err_msg=field)
         assert other.time == worlds[0].time                     # the clock too, bit for bit
+
+
+def test_the_stage_functions_run_in_the_timer_s_order():
+    """``step_worlds`` calls the stages by their place in ``arrays.STAGES`` (the timer's
+    order) and each returns int64 as declared: the functions are listed in that order."""
+    from tumble.pipeline.step import STAGE_FUNCTIONS, StageAddresses
+    pairs = [(timed, f.__name__) for timed, f in zip(STAGES, STAGE_FUNCTIONS)]
+    assert pairs == [("collide", "collide_stage"), ("forces", "forces_stage"),
+                     ("integrate_velocities", "integrate_velocities_stage"),
+                     ("rows", "rows_stage"), ("solve", "solve_stage"),
+                     ("integrate_positions", "integrate_positions_stage"),
+                     ("project_joints", "project_stage"), ("divergence_check", "check_stage"),
+                     ("joint_coordinates", "coordinates_stage")]
+    assert StageAddresses._fields == STAGES
+
+
+def test_a_stage_with_another_result_type_is_refused(monkeypatch):
+    """The stages are called through their addresses with an int64 result declared: one
+    compiled to return anything else is refused before it is ever called."""
+    from numba import types
+    from tumble._jit import noalloc
+    from tumble.pipeline import step
+    world = pendulum_and_box()
+    world.step(1)
+    box, o = world._box, world.step_options()
+
+    @noalloc(cache=False)
+    def returns_a_float(box, w, k, n, o):
+        return 1.5
+
+    sig = step.stage_signature(box, o)
+    returns_a_float.compile(sig)
+    assert returns_a_float.overloads[sig].signature.return_type == types.float64
+    monkeypatch.setattr(step, "STAGE_FUNCTIONS", (returns_a_float,) + step.STAGE_FUNCTIONS[1:])
+    with pytest.raises(TypeError, match="returns_a_float returns float64, not int64"):
+        step.stage_addresses(box, o)

@@ -53,8 +53,7 @@ from .._jit import box_args, call_address, compiled_address, noalloc, ticks, wor
 from .actuators import (PD_EXPLICIT, PD_IMPLICIT, PD_STABLE, actuator_forces, body_servo_rows,
                         stable_servo_forces)
 from .arrays import (CONTACT_PENALTY, STAGE_CHECK, STAGE_COLLIDE, STAGE_COORDINATES,
-                     STAGE_FORCES, STAGE_INTEGRATE_POSITIONS, STAGE_INTEGRATE_VELOCITIES,
-                     STAGE_PROJECT, STAGE_ROWS, STAGE_SOLVE, STAGES)
+                     STAGE_FORCES, STAGES)
 from .collide import COLLIDE_OK, COLLIDE_PAIRS_FULL, collide_listed, collide_world
 from .contacts.arrays import copy_contact, pair_before
 from .contacts.pairs import ROWS_SPIN
@@ -443,18 +442,10 @@ def step_worlds(box, stages, n, o):
             if status != STEP_OK:
                 return status, w, k, np.int64(-1), work.carry[CARRY_NEEDED]
             t = _lap(o, stage_ticks, STAGE_COLLIDE, t)
-            call_address(stages[STAGE_FORCES], _RESULT, args)
-            t = _lap(o, stage_ticks, STAGE_FORCES, t)
-            call_address(stages[STAGE_INTEGRATE_VELOCITIES], _RESULT, args)
-            t = _lap(o, stage_ticks, STAGE_INTEGRATE_VELOCITIES, t)
-            call_address(stages[STAGE_ROWS], _RESULT, args)
-            t = _lap(o, stage_ticks, STAGE_ROWS, t)
-            call_address(stages[STAGE_SOLVE], _RESULT, args)
-            t = _lap(o, stage_ticks, STAGE_SOLVE, t)
-            call_address(stages[STAGE_INTEGRATE_POSITIONS], _RESULT, args)
-            t = _lap(o, stage_ticks, STAGE_INTEGRATE_POSITIONS, t)
-            call_address(stages[STAGE_PROJECT], _RESULT, args)
-            t = _lap(o, stage_ticks, STAGE_PROJECT, t)
+            # forces, velocities, rows, solve, positions, projection: in arrays.STAGES order
+            for stage in range(STAGE_FORCES, STAGE_CHECK):
+                call_address(stages[stage], _RESULT, args)
+                t = _lap(o, stage_ticks, stage, t)
             bad = call_address(stages[STAGE_CHECK], _RESULT, args)
             _lap(o, stage_ticks, STAGE_CHECK, t)
             if bad >= 0:
