@@ -36,8 +36,8 @@ marks and scratch; read by ``_jit.box_args`` without counting references), the w
 step, the step count and the options -- one signature for all of them -- and
 ``step_worlds`` calls each through the address of its compiled code
 (``stage_addresses``, ``_jit.call_address``): every stage compiles once, on its own (in
-parallel processes on a cold start: ``tumble._compile``), and the step above them in a
-second. What a stage hands the next within a world's step (the contact count, the row
+parallel processes on a cold start: ``tumble._compile``), and the step above them in
+seconds. What a stage hands the next within a world's step (the contact count, the row
 count, ...) goes through ``work.carry``.
 
 With ``StepOptions.profile`` the step adds the time of each stage (``arrays.STAGES``) to
