@@ -109,13 +109,10 @@ def noalloc(fn=None, **options):
 
     Use as ``@noalloc`` or ``@noalloc(inline="always")``. Returning an array is a typing
     error (``_NoArrayReturn``), raised when the function compiles."""
-    options.setdefault("cache", True)
     if _HAS_NRT_OPTION:
         options["_nrt"] = False
         options["pipeline_class"] = _NoallocCompiler
-    if fn is None:
-        return lambda f: njit(**options)(f)
-    return njit(**options)(fn)
+    return _cached_njit(fn, options)
 
 
 def allocating(fn=None, **options):
@@ -123,9 +120,15 @@ def allocating(fn=None, **options):
     ``noalloc`` code (the general broad phase, stable PD, the exact solve): it keeps
     Numba's runtime instead of inheriting its caller's lack of it, and counts references
     to the (borrowed) arrays it is given on the way in and out."""
-    options.setdefault("cache", True)
     if _HAS_NRT_OPTION:
         options["_nrt"] = True
+    return _cached_njit(fn, options)
+
+
+def _cached_njit(fn, options):
+    """``njit(cache=True, **options)`` applied to ``fn``, or the decorator that applies it
+    when ``fn`` is None (``@noalloc`` and ``@noalloc(...)`` alike)."""
+    options.setdefault("cache", True)
     if fn is None:
         return lambda f: njit(**options)(f)
     return njit(**options)(fn)
