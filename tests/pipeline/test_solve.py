@@ -1,4 +1,5 @@
-"""The solve stage's choice of method (``tumble.pipeline.solve``): Lemke's back-off.
+"""The solve stage's choice of method (``tumble.pipeline.solve``): Lemke's back-off, and
+PGS at once for contacts beyond the exact path's size.
 
 A world whose exact (Lemke) solve fails gets PGS at once for 1, 2, 4, ... up to
 ``LEMKE_BACKOFF_MAX`` steps while Lemke keeps failing, and Lemke every step again after an
@@ -7,8 +8,10 @@ exact solve. The case that needs it: the course ragdoll, servos on, lying on the
 import numpy as np
 import pytest
 
+import tumble
 from tumble.character.ragdoll import games105_ragdoll
 from tumble.pipeline.solve import LEMKE_BACKOFF_MAX
+from tumble.pipeline.solvers.mlcp import EXACT_MAX_ROWS
 
 
 @pytest.fixture(scope="module")
@@ -68,3 +71,28 @@ def test_a_restored_state_tries_lemke_at_once(fallen):
     w.reset()
     assert np.all(w.state_arrays.lcp_backoff == 0)
 
+
+
+def boxes_on_ground(count):
+    """``count`` 0.2 m cubes of 1 kg resting side by side on a plane, 0.1 m apart (four
+    corner contacts, 12 rows, each), on contact='lcp' at 1/60 s."""
+    b = tumble.ModelBuilder()
+    b.add_geom(None, "plane")
+    for i in range(count):
+        b.add_body(f"box{i}", pos=(0.3 * (i % 10), 0.3 * (i // 10), 0.1), mass=1.0,
+                   inertia=(1 / 150, 1 / 150, 1 / 150))
+        b.add_geom(f"box{i}", "box", size=(0.1, 0.1, 0.1), friction=0.8)
+    return tumble.World(b.build(), dt=1 / 60, contact="lcp")
+
+
+@pytest.mark.parametrize("count", [EXACT_MAX_ROWS // 12, EXACT_MAX_ROWS // 12 + 1])
+def test_more_contact_rows_than_the_exact_path_takes_go_to_pgs_at_once(count):
+    w = boxes_on_ground(count)
+    w.step(30)
+    assert w.state_arrays.contact_count[0] == 4 * count
+    exact = 12 * count <= EXACT_MAX_ROWS
+    # every step's solve exact below the cap; PGS on every step above it (nothing tried)
+    assert w.lcp_fallbacks == (0 if exact else 30)
+    z = w.body_pos[:, 2]
+    assert np.all(np.abs(z - 0.1) < 1e-3), z.min()         # resting either way
+    assert np.abs(w.body_vel).max() < 1e-3

@@ -76,6 +76,7 @@ LEMKE_RAY = 1          # secondary ray: for copositive-plus M, proof that none e
 LEMKE_MAX_ITER = 2     # pivot cap reached
 LEMKE_BAD_INPUT = 3    # shape mismatch, non-finite M, q or pivot_tol, or overflow
 LEMKE_INACCURATE = 4   # pivoting ended in a basis whose solution fails verification
+LEMKE_TOO_LARGE = 5    # not attempted: too many rows for the dense exact path (mlcp.py)
 
 # Values (normalised units) closer than TIE_TOL * max(1, |value|) + NOISE * (largest
 # tableau entry so far) / pivot count as tied in the ratio test and lexicographic rule.

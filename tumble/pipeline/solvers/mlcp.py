@@ -34,12 +34,19 @@ from .common import Bodies, apply_impulses, row_velocity
 from .direct import assemble
 from .guess import (ZERO, guess_on_tree, guess_states, guessed_active_set, make_guess_scratch,
                     make_held_scratch, tree_work)
-from .lemke import LEMKE_BAD_INPUT, LEMKE_SOLVED
+from .lemke import LEMKE_BAD_INPUT, LEMKE_SOLVED, LEMKE_TOO_LARGE
 from .partition import KIND_FRICTION, load_slot, partition_rows
 from .pyramid import pyramid_lcp
 from .schur import complement, respond, schur_dense
 from .schur_pgs import SWEEP_ROWS, schur_pgs_exact, sweep_on_tree
 from .tree import cached_tree_plan, make_plan_cache, plan_kept, tree_factor, tree_solve
+
+
+# Most contact, limit and box rows solved exactly. The exact path is dense in them (their
+# Schur complement, Lemke's tableau of up to three variables a row, O(n^3) pivoting): the
+# 210-box pyramid's 4,800 rows took 6.5 s and 2.6 GB for one step. Above this the caller's
+# fallback (PGS) stands in at once, and nothing is allocated.
+EXACT_MAX_ROWS = 512
 
 
 @njit(cache=True)
@@ -53,7 +60,8 @@ def solve_mlcp(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, max_pivo
     caller whose ``guess_on_tree_fast`` already tried it (FAST_GUESS_FAILED).
 
     On failure nothing is applied and ``impulse`` is left as it came (warm start for
-    the caller's fallback).
+    the caller's fallback). LEMKE_TOO_LARGE, without trying, for more than
+    ``EXACT_MAX_ROWS`` contact, limit and box rows.
     """
     return mixed_lcp_cached(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse,
                             max_pivots, np.bool_(True), cache, guess)
@@ -76,6 +84,8 @@ def mixed_lcp_cached(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, ma
     part = partition_rows(rows, nrow, np.empty(6 * nrow, np.int64))
     if part.n == 0:
         return LEMKE_SOLVED
+    if part.nn > EXACT_MAX_ROWS:
+        return LEMKE_TOO_LARGE
     bodies = Bodies(inv_mass, inv_inertia, vel, angvel)
     if allow_tree and part.nb > 0:
         ok, plan = cached_tree_plan(cache, rows, part.bsel, part.nb, inv_mass, vel.shape[0])
