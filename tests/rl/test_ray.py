@@ -113,6 +113,15 @@ def test_train_with_workers_from_the_command_line(tmp_path, capsys):
     assert int(rows(out / "progress.csv")[0]["samples"]) == 2 * 4 * 32
 
 
+def test_workers_run_at_the_learners_priority():
+    """Ray starts its workers at niceness 15, which starves them beside any busy process;
+    a local cluster of init_ray's keeps them at the learner's."""
+    @ray.remote(num_cpus=1)
+    def niceness():
+        return os.nice(0)
+    assert ray.get(niceness.remote()) == os.nice(0)
+
+
 def test_bad_worker_counts_are_refused(tmp_path):
     import tumble
     with pytest.raises(tumble.ModelError, match="workers"):
