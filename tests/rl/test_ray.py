@@ -57,37 +57,29 @@ def test_one_worker_repeats_the_single_process_trainer(tmp_path):
                           Policy.load(tmp_path / "local" / "policy.npz").act(x))
 
 
-def test_two_workers_train_checkpoint_and_resume(tmp_path):
+def test_two_workers_train_replace_a_killed_one_checkpoint_and_resume(tmp_path):
+    """One run through it all (each trainer starts two worker processes: seconds each)."""
     out = tmp_path / "run"
-    t = RayTrainer(out, config(), workers=2, progress=False, log=None)
+    log = []
+    t = RayTrainer(out, config(), workers=2, progress=False, log=log.append)
     # the learner compiled (or loaded) the kernels first: the workers load them
     pids = {pid for pid, _, _ in t.worker_info}
     assert len(pids) == 2 and os.getpid() not in pids
     assert all(seconds < 120 for _, seconds, _ in t.worker_info), t.worker_info
     t.run()
-    t.close()
-    progress = rows(out / "progress.csv")
-    assert [int(r["samples"]) for r in progress] == [64, 128]     # 2 workers x 4 x 8
+    assert [int(r["samples"]) for r in rows(out / "progress.csv")] == [64, 128]  # 2 x 4 x 8
     assert (out / "checkpoint.pt").exists()
-    again = RayTrainer(out, config(iterations=3), workers=2, resume=True, progress=False,
-                       log=None)
-    assert again.iteration == 2
-    again.run()
-    again.close()
-    assert [int(r["iteration"]) for r in rows(out / "progress.csv")] == [1, 2, 3]
-
-
-def test_a_killed_worker_is_replaced_and_training_goes_on(tmp_path):
-    log = []
-    t = RayTrainer(tmp_path / "run", config(iterations=1), workers=2, progress=False,
-                   log=log.append)
-    t.run()
     os.kill(t.worker_info[1][0], signal.SIGKILL)          # a worker's process dies
     t.run(3)
     t.close()
     assert t.iteration == 3 and t.worker_restarts >= 1
     assert any("worker 1 failed" in m for m in log)
-    assert [int(r["iteration"]) for r in rows(tmp_path / "run" / "progress.csv")] == [1, 2, 3]
+    again = RayTrainer(out, config(iterations=4), workers=2, resume=True, progress=False,
+                       log=None)
+    assert again.iteration == 3
+    again.run()
+    again.close()
+    assert [int(r["iteration"]) for r in rows(out / "progress.csv")] == [1, 2, 3, 4]
 
 
 def test_amp_trains_on_workers(tmp_path):
