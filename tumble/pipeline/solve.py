@@ -2,7 +2,8 @@
 
 The options pick the method: the direct solver (exact, dense or over the joint tree) when
 there are no contacts or they are penalty springs; the mixed LCP by Lemke for exact
-contacts, with projected Gauss-Seidel standing in if Lemke fails; PGS throughout for
+contacts, with projected Gauss-Seidel standing in if Lemke fails or the contacts have more
+rows than the exact path takes (``solvers.mlcp.EXACT_MAX_ROWS``); PGS throughout for
 ``contact='pgs'`` (or ``solver='pgs'`` without contacts). ``solve_fast`` takes the most
 common case (a character on exact contacts) without allocating.
 
