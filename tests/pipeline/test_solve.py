@@ -93,6 +93,7 @@ def test_more_contact_rows_than_the_exact_path_takes_go_to_pgs_at_once(count):
     exact = 12 * count <= EXACT_MAX_ROWS
     # every step's solve exact below the cap; PGS on every step above it (nothing tried)
     assert w.lcp_fallbacks == (0 if exact else 30)
+    assert np.all(w.state_arrays.lcp_backoff == 0)         # a refusal by size: no back-off
     z = w.body_pos[:, 2]
     assert np.all(np.abs(z - 0.1) < 1e-3), z.min()         # resting either way
     assert np.abs(w.body_vel).max() < 1e-3

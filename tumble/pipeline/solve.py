@@ -15,7 +15,9 @@ corners) makes Lemke fail step after step, each failure costing
 several times a PGS solve (measured: 8-9 ms for Lemke against 1.6 ms for PGS on the fallen
 course ragdoll); the back-off keeps that cost to one attempt in ``LEMKE_BACKOFF_MAX + 1``
 steps. ``solve_fast`` (the exact common case, no pivoting) is tried on every step: a
-character that gets up from the heap is solved exactly again at once.
+character that gets up from the heap is solved exactly again at once. A refusal by size
+(``LEMKE_TOO_LARGE``: more rows than ``EXACT_MAX_ROWS``) starts no back-off, since it costs
+nothing: a scene that comes under the limit is solved exactly at once.
 """
 import numpy as np
 from numba import njit
@@ -23,6 +25,7 @@ from numba import njit
 from .._jit import allocating, noalloc
 from .arrays import CONTACT_LCP, CONTACT_PENALTY, CONTACT_PGS, SOLVER_PGS
 from .solvers.direct import solve_direct
+from .solvers.lemke import LEMKE_SOLVED, LEMKE_TOO_LARGE
 from .solvers.mlcp import FAST_GUESS_FAILED, FAST_NOT_HANDLED, guess_on_tree_fast, solve_mlcp
 from .solvers.pgs import solve_pgs
 from .solvers.tree import make_plan_cache, plan_capacity
@@ -56,13 +59,15 @@ def solve_rows(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o, caches, ba
     # from the warm start
     if backoff[0] > 0:
         backoff[0] -= 1
-    elif solve_mlcp(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp, np.int64(0),
-                    caches[1], fast_status != FAST_GUESS_FAILED) == 0:
-        backoff[1] = 0
-        return 0
     else:
-        backoff[1] = min(max(2 * backoff[1], np.int64(1)), np.int64(LEMKE_BACKOFF_MAX))
-        backoff[0] = backoff[1]
+        status = solve_mlcp(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp,
+                            np.int64(0), caches[1], fast_status != FAST_GUESS_FAILED)
+        if status == LEMKE_SOLVED:
+            backoff[1] = 0
+            return 0
+        if status != LEMKE_TOO_LARGE:       # (a refusal by size cost nothing: no back-off)
+            backoff[1] = min(max(2 * backoff[1], np.int64(1)), np.int64(LEMKE_BACKOFF_MAX))
+            backoff[0] = backoff[1]
     solve_pgs(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp, o.iterations,
               o.tolerance, o.warm_start)
     return 1
