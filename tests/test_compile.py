@@ -42,22 +42,6 @@ def test_a_worker_compiles_its_share_into_the_cache_this_process_loads(tmp_path)
     assert result == "-1"
 
 
-def test_processes_starting_cold_together_take_turns(tmp_path):
-    """Two processes on one empty cache at once: each kernel is compiled by one of them;
-    the other waited for its turn and loaded it from the cache."""
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"), **{WORKERS_VARIABLE: "0"})
-    procs = [subprocess.Popen([sys.executable, "-c", _SHARE], stdout=subprocess.PIPE,
-                              stderr=subprocess.PIPE, text=True, env=env) for _ in range(2)]
-    outs = []
-    for p in procs:
-        out, err = p.communicate(timeout=600)
-        assert p.returncode == 0, err
-        outs.append([int(x) for x in out.split()])
-    assert sorted(o[0] for o in outs) == [0, 1]            # first_bad_body: compiled once
-    assert sorted(o[1] for o in outs) == [0, 1]            # quat_from_mat: compiled once
-    assert [o[3] for o in outs] == [-1, -1]                # and run by both
-
-
 def test_without_workers_everything_compiles_here(tmp_path):
     assert _run(tmp_path, 0)[:3] == ["1", "1", "0"]
 

@@ -7,28 +7,17 @@ spends minutes on one core; ``compile_all`` hands the kernels Numba's on-disk ca
 not hold yet to worker processes (``python -m tumble._compile``), which compile them into
 that cache, while this process compiles its own share, then loads theirs from the cache.
 
-Processes that start cold at the same time (the test suite's workers, a user's scripts)
-take turns: ``compile_all`` holds a lock file in the cache's directory while it
-compiles, and a process that waited for it loads from the cache what the other one
-compiled instead of compiling it again beside it, each at half speed.
-
 It only ever speeds things up: a worker that fails, or a cache another process cannot
 fill (caching off, no writable location), leaves this process to compile what is
 missing itself, exactly as it would have without workers. ``TUMBLE_COMPILE_WORKERS``
 sets how many worker processes may run (default: the cores this process may use, less
 one for itself; 0 compiles everything here).
 """
-import contextlib
 import os
 import pickle
 import subprocess
 import sys
 from pathlib import Path
-
-try:
-    import fcntl
-except ImportError:                  # pragma: no cover - not POSIX: no turns taken
-    fcntl = None
 
 from ._jit import caches_to_disk, load_cached
 
@@ -61,43 +50,6 @@ def compile_all(jobs, local=()):
     the workers filled, or compiled here if a worker failed)."""
     missing = [(d, tuple(sig), w) for d, sig, w in jobs
                if not load_cached(d, sig)]
-    if not missing:
-        for d, sig, _ in local:
-            d.compile(tuple(sig))
-        return
-    with _turn(missing[0][0]):
-        # (what another process compiled while this one waited is in the cache now)
-        _compile_missing([(d, sig, w) for d, sig, w in missing if not load_cached(d, sig)],
-                         local)
-
-
-@contextlib.contextmanager
-def _turn(dispatcher):
-    """Hold the lock file of ``dispatcher``'s cache directory (waiting for it while
-    another process holds it); without one (no on-disk cache, not POSIX, a directory
-    this process cannot write), nothing."""
-    cache = getattr(dispatcher, "_cache", None)
-    path = getattr(cache, "_cache_path", None)
-    handle = None
-    if fcntl is not None and caches_to_disk(dispatcher) and path:
-        try:
-            os.makedirs(path, exist_ok=True)
-            handle = open(os.path.join(path, ".tumble-compile.lock"), "a")
-        except OSError:
-            pass
-    if handle is None:
-        yield
-        return
-    with handle:
-        fcntl.flock(handle, fcntl.LOCK_EX)
-        try:
-            yield
-        finally:
-            fcntl.flock(handle, fcntl.LOCK_UN)
-
-
-def _compile_missing(missing, local):
-    """``compile_all``'s work on the jobs the cache lacks (``missing``) and ``local``."""
     nworker = min(worker_count(), len(missing))
     if nworker == 0 or not all(caches_to_disk(d) for d, _, _ in missing):
         for d, sig, _ in list(local) + missing:
