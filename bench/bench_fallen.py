@@ -18,11 +18,15 @@ failure Lemke backs off for up to 128 steps, ``tumble.pipeline.solve``), and the
 body speed while lying (a heap at rest should not jitter). No peer runs this scene yet.
 """
 import argparse
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
-from tumble.character.ragdoll import games105_ragdoll
+if __package__ in (None, ""):   # run as a script: this tree's tumble, not an installed one
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from tumble.character.ragdoll import games105_ragdoll  # noqa: E402
 
 
 def make(contact, fallen):
