@@ -72,7 +72,6 @@ def test_a_restored_state_tries_lemke_at_once(fallen):
     assert np.all(w.state_arrays.lcp_backoff == 0)
 
 
-
 def boxes_on_ground(count):
     """``count`` 0.2 m cubes of 1 kg resting side by side on a plane, 0.1 m apart (four
     corner contacts, 12 rows, each), on contact='lcp' at 1/60 s."""

@@ -24,7 +24,7 @@ from numba import njit, typeof, types
 from .._jit import ArgBox, assign_arrays, assign_heads, box_args, noalloc
 from ..model.types import STATIC
 from .checks import DRIVE_OK, STATE_OK, check_drives, check_state
-from .step import STEP_OK, StageAddresses, step_worlds
+from .step import STEP_OK, StageAddresses, stage_addresses, step_worlds
 from .work import make_step_work, work_fits
 
 # What step_span reports in its first field.
@@ -119,6 +119,13 @@ def step_span_signature(box, o):
     """The Numba argument types of ``step_span`` for the box ``box`` and options ``o``."""
     return (box._numba_type_, typeof(StageAddresses(*[0] * len(StageAddresses._fields))),
             types.int64, typeof(o), types.boolean)
+
+
+def step_code(box, o):
+    """The stages' compiled code for the box ``box`` and options ``o``
+    (``step.stage_addresses``), with ``step_span`` compiled for them meanwhile (or loaded:
+    in this process while worker processes compile the stages on a cold start)."""
+    return stage_addresses(box, o, meanwhile=[(step_span, step_span_signature(box, o))])
 
 
 @noalloc(inline="always")

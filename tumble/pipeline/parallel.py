@@ -38,10 +38,10 @@ from numba.typed import List
 
 from .._jit import ArgBox, call_compiled, compiled_address, worlds_view
 from .call import (CALL_BAD_DRIVE, CALL_BAD_STATE, CALL_NEW_WORK, CALL_STEPPED,
-                   clear_applied, make_step_box, restore_inputs, step_span,
+                   clear_applied, make_step_box, restore_inputs, step_code, step_span,
                    step_span_signature)
 from .checks import DRIVE_ZERO_BODY_QUAT
-from .step import STEP_OK, stage_addresses
+from .step import STEP_OK
 
 # Columns of each span's outcome in step_boxed_parallel.
 _STAGE, _CODE, _WORLD, _INDEX, _STEP, _NEEDED, _SAVED = range(7)
@@ -86,9 +86,8 @@ def span_addresses(spans, o):
     """The compiled code ``step_boxed_parallel`` calls on each thread for the spans
     ``spans`` (``make_spans``) and options ``o``, compiled now if it is not yet: the
     address of ``call.step_span``'s and the stages' (``step.stage_addresses``)."""
-    sig = step_span_signature(spans[0], o)
-    stages = stage_addresses(spans[0], o, meanwhile=[(step_span, sig)])
-    return compiled_address(step_span, sig), stages
+    stages = step_code(spans[0], o)
+    return compiled_address(step_span, step_span_signature(spans[0], o)), stages
 
 
 @njit(cache=True, parallel=True)

@@ -400,8 +400,7 @@ class World(StateMixin, ControlMixin, QueryMixin):
         needed)."""
         if self._box is None:
             self._box = self._make_box(o)
-            self._stages = stage_addresses(self._box, o, meanwhile=[
-                (call.step_span, call.step_span_signature(self._box, o))])
+            self._stages = call.step_code(self._box, o)
         return self._through_entry("_entry", call.step_span,
                                    (self._box, self._stages, n, o, True))
 
