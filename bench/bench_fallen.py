@@ -8,14 +8,17 @@ m/rad, kd 50 N m s/rad, implicit PD) at 1/60 s, in two states:
 
 - standing: its root held at the built pose by a body servo (the hand of god), so only the
   feet touch the ground;
-- fallen: knocked over (2 m/s forwards), 4 s to come to rest, then timed lying in a heap
-  (about 64 contacts: the corners of every box that lies on its face).
+- fallen: knocked over (2 m/s forwards), 4 s to land, then timed lying in a heap (about
+  64 contacts: the corners of every box that lies on its face); and again, as ``at rest``,
+  over ``--rest`` steps from 30 s after landing (a heap that PGS solves can creep for
+  10 s or so, each step running all of PGS's sweeps, before it settles).
 
 For each contact model: ms per step in each state (the serial step, warm cache, the mean
-over three runs of ``--steps`` steps in a row), the ratio fallen / standing (issue 26's goal: 2 or
-less), the contacts, and the steps on which PGS stood in for Lemke (contact='lcp'; after a
-failure Lemke backs off for up to 128 steps, ``tumble.pipeline.solve``), and the largest
-body speed while lying (a heap at rest should not jitter). No peer runs this scene yet.
+over three runs of ``--steps`` steps in a row; at rest, over all ``--rest`` steps), the
+ratios fallen / standing (issue 26's goal: 2 or less), the contacts, and the steps on which
+PGS stood in for Lemke (contact='lcp'; after a failure Lemke backs off for up to 1,024
+steps, ``tumble.pipeline.solve``), and the largest body speed while lying (a heap at rest
+should not jitter). No peer runs this scene yet.
 """
 import argparse
 import sys
@@ -63,18 +66,26 @@ def time_steps(w, steps, rounds=3):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--steps", type=int, default=300)
+    ap.add_argument("--rest", type=int, default=1800,
+                    help="steps timed at rest, from 30 s after landing (0: skip)")
     ap.add_argument("--contacts", nargs="+", default=["lcp", "pgs", "penalty"])
     args = ap.parse_args()
-    print(f"{'contact':8} {'standing ms':>12} {'fallen ms':>10} {'ratio':>6} {'contacts':>9} "
-          f"{'PGS for Lemke':>14} {'max speed':>10}")
+    print(f"{'contact':8} {'standing ms':>12} {'fallen ms':>10} {'ratio':>6} {'at rest ms':>11} "
+          f"{'ratio':>6} {'contacts':>9} {'PGS for Lemke':>14} {'max speed':>10}")
     for contact in args.contacts:
         stand = make(contact, False)
         t_stand, _, _ = time_steps(stand, args.steps)
         lying = make(contact, True)
         t_fall, fb, vmax = time_steps(lying, args.steps)
+        rest_text = f"{'-':>11} {'-':>6}"
+        if args.rest > 0:
+            lying.step(max(1800 - 3 * args.steps, 0))
+            t_rest, _, vrest = time_steps(lying, args.rest, rounds=1)
+            vmax = max(vmax, vrest)
+            rest_text = f"{t_rest:11.3f} {t_rest / t_stand:6.1f}"
         ncon = int(lying.state_arrays.contact_count[0])
         fb_text = f"{100 * fb:.0f}%" if contact == "lcp" else "-"
-        print(f"{contact:8} {t_stand:12.3f} {t_fall:10.3f} {t_fall / t_stand:6.1f} "
+        print(f"{contact:8} {t_stand:12.3f} {t_fall:10.3f} {t_fall / t_stand:6.1f} {rest_text} "
               f"{ncon:9d} {fb_text:>14} {vmax:10.3f}", flush=True)
 
 

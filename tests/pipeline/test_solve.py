@@ -14,21 +14,27 @@ from tumble.pipeline.solve import LEMKE_BACKOFF_MAX
 from tumble.pipeline.solvers.mlcp import EXACT_MAX_ROWS
 
 
-@pytest.fixture(scope="module")
-def fallen():
+def knocked_over():
     """The course ragdoll, servos holding its pose, knocked over and lying on the ground
-    (contact='lcp', 1/60 s), and its per-step record over 100 steps on the ground:
-    (fallbacks added, steps left to skip, window) after each step."""
+    (contact='lcp', 1/60 s)."""
     w = games105_ragdoll().make_world(dt=1 / 60, contact="lcp")
     for j in w.model.joint_names[1:]:
         w.set_pd_gains(j, 500.0, 50.0)
     w.body_vel[:, 0] = 2.0                        # knocked over forwards
     w.step(240)
+    return w
+
+
+@pytest.fixture(scope="module")
+def fallen():
+    """``knocked_over``'s world and its per-step record over 100 steps on the ground:
+    (fallbacks added, steps left to skip, window) after each step."""
+    w = knocked_over()
     record = []
     for _ in range(100):
         before = w.lcp_fallbacks
         w.step(1)
-        left, window = w.state_arrays.lcp_backoff[0]
+        left, window, _ = w.state_arrays.lcp_backoff[0]
         record.append((w.lcp_fallbacks - before, int(left), int(window)))
     return w, np.array(record)
 
@@ -61,13 +67,32 @@ def test_the_heap_stays_at_rest_under_the_back_off(fallen):
     assert np.all(np.isfinite(speed)) and speed.max() < 0.5     # m/s: lying, not jittering
 
 
+def test_a_character_getting_up_is_solved_exactly_at_once():
+    """Backing off on the heap, then lifted to its built pose by a body servo on the root:
+    Lemke is tried in the step the contacts drop below the fewest of its failures, not at
+    the end of the window (PGS's impulses give the fast path no guess to start from)."""
+    w = knocked_over()
+    for _ in range(200):
+        w.step(1)
+        if w.state_arrays.lcp_backoff[0, 0] >= 30:
+            break
+    left, window, fewest = w.state_arrays.lcp_backoff[0]
+    assert left >= 30 and fewest >= 20                      # a long skip ahead, on the heap
+    w.set_body_servo(w.model.body_names[0], 1e4, 1e3, 1e3, 1e2)
+    before = w.lcp_fallbacks
+    w.step(60)
+    assert w.state_arrays.contact_count[0] < fewest         # standing on its feet
+    assert w.lcp_fallbacks - before <= 3                    # not the `left` steps of PGS
+    assert np.all(w.state_arrays.lcp_backoff == 0)
+
+
 def test_a_restored_state_tries_lemke_at_once(fallen):
     w, _ = fallen
     state = w.get_state()
-    w.state_arrays.lcp_backoff[:] = (5, 8)
+    w.state_arrays.lcp_backoff[:] = (5, 8, 64)
     w.set_state(state)
     assert np.all(w.state_arrays.lcp_backoff == 0)
-    w.state_arrays.lcp_backoff[:] = (5, 8)
+    w.state_arrays.lcp_backoff[:] = (5, 8, 64)
     w.reset()
     assert np.all(w.state_arrays.lcp_backoff == 0)
 

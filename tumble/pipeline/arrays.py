@@ -45,7 +45,8 @@ StateArrays = namedtuple("StateArrays", [
     "joint_torque",    # (nworld, njoint, 3) torque on the child about the anchor, N m, world
     "contact_count",   # (nworld,) int64 contacts found in the last step
     "lcp_fallbacks",   # (nworld,) int64 steps where PGS stood in for Lemke
-    "lcp_backoff",     # (nworld, 2) int64 steps left that skip Lemke, and the skip window
+    "lcp_backoff",     # (nworld, 3) int64 steps left that skip Lemke, the skip window, and
+                       # the fewest contacts of a failure since the last exact solve
     "stage_ticks",     # (nworld, len(STAGES)) int64 time in each stage (_jit.ticks units)
     "body_rest",       # (nworld, nbody) s each body has been at rest (sleep.py)
 ])
@@ -81,7 +82,7 @@ def make_state_arrays(nworld, nbody, njoint, nrow):
         joint_qd=np.zeros((nw, nj, 3)), joint_qrel=np.zeros((nw, nj, 4)),
         joint_force=np.zeros((nw, nj, 3)), joint_torque=np.zeros((nw, nj, 3)),
         contact_count=np.zeros(nw, np.int64), lcp_fallbacks=np.zeros(nw, np.int64),
-        lcp_backoff=np.zeros((nw, 2), np.int64),
+        lcp_backoff=np.zeros((nw, 3), np.int64),
         stage_ticks=np.zeros((nw, len(STAGES)), np.int64), body_rest=np.zeros((nw, nb)))
 
 

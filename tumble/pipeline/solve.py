@@ -11,13 +11,15 @@ Back-off: a world whose Lemke solve failed skips Lemke (PGS at once) for the nex
 ... up to ``LEMKE_BACKOFF_MAX`` steps while it keeps failing, and tries it every step
 again after an exact solve (Lemke's, or ``solve_fast``'s, which resets the back-off). A
 pile of redundant contacts (a character lying on the ground: 64 contacts, every face's
-corners) makes Lemke fail step after step, each failure costing
-several times a PGS solve (measured: 8-9 ms for Lemke against 1.6 ms for PGS on the fallen
-course ragdoll); the back-off keeps that cost to one attempt in ``LEMKE_BACKOFF_MAX + 1``
-steps. ``solve_fast`` (the exact common case, no pivoting) is tried on every step: a
-character that gets up from the heap is solved exactly again at once. A refusal by size
-(``LEMKE_TOO_LARGE``: more rows than ``EXACT_MAX_ROWS``) starts no back-off, since it costs
-nothing: a scene that comes under the limit is solved exactly at once.
+corners) makes Lemke fail step after step, each failure costing several times a PGS solve
+(measured: 9-11 ms for Lemke against 0.03-1.2 ms for PGS on the fallen course ragdoll); the
+back-off keeps that cost to one attempt in ``LEMKE_BACKOFF_MAX + 1`` steps. A step with
+fewer contacts than any failure since the last exact solve tries Lemke at once: a
+character that gets up from the heap is exact again in the step its contacts drop
+(``solve_fast``, tried on every step, guesses from last step's impulses, which PGS's do
+not give it). A refusal by size (``LEMKE_TOO_LARGE``: more rows than ``EXACT_MAX_ROWS``)
+starts no back-off, since it costs nothing: a scene that comes under the limit is solved
+exactly at once.
 """
 import numpy as np
 from numba import njit
@@ -32,7 +34,7 @@ from .solvers.tree import make_plan_cache, plan_capacity
 
 
 # Most steps a world skips Lemke after failures in a row (the window doubles up to it).
-LEMKE_BACKOFF_MAX = 128
+LEMKE_BACKOFF_MAX = 1024
 
 
 @allocating
@@ -42,8 +44,9 @@ def solve_rows(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o, caches, ba
     ``o`` pick, updating ``vel``, ``angvel`` (nbody, 3) and ``imp`` (nrow,) in place.
 
     caches : (direct, mlcp) tree-plan caches (``make_solver_caches``).
-    backoff : (2,) int64 of the world's state (``lcp_backoff``): steps left that skip
-        Lemke, and the current window (module docstring); updated.
+    backoff : (3,) int64 of the world's state (``lcp_backoff``): steps left that skip
+        Lemke, the current window, and the fewest contacts of a failure since the last
+        exact solve (0: none; module docstring); updated.
     fast_status : what ``solve_fast`` returned for these rows: after FAST_GUESS_FAILED the
         mixed LCP does not try last step's contact state again.
     Returns 1 when PGS stood in for the exact (Lemke) solve, else 0."""
@@ -57,6 +60,8 @@ def solve_rows(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o, caches, ba
         return 0
     # exact: the mixed LCP by Lemke (unless backing off); if Lemke reports failure, PGS
     # from the warm start
+    if backoff[0] > 0 and ncon < backoff[2]:
+        backoff[0] = 0          # fewer contacts than on any failure since the last solve
     if backoff[0] > 0:
         backoff[0] -= 1
     else:
@@ -64,10 +69,12 @@ def solve_rows(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o, caches, ba
                             np.int64(0), caches[1], fast_status != FAST_GUESS_FAILED)
         if status == LEMKE_SOLVED:
             backoff[1] = 0
+            backoff[2] = 0
             return 0
         if status != LEMKE_TOO_LARGE:       # (a refusal by size cost nothing: no back-off)
             backoff[1] = min(max(2 * backoff[1], np.int64(1)), np.int64(LEMKE_BACKOFF_MAX))
             backoff[0] = backoff[1]
+            backoff[2] = ncon if backoff[2] == 0 else min(backoff[2], ncon)
     solve_pgs(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp, o.iterations,
               o.tolerance, o.warm_start)
     return 1

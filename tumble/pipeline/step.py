@@ -245,6 +245,7 @@ def solve_stage(box, w, k, n, o):
     if fast == FAST_SOLVED:
         sw.lcp_backoff[0] = 0           # solved exactly: no back-off from Lemke
         sw.lcp_backoff[1] = 0
+        sw.lcp_backoff[2] = 0
     else:
         _solve_rows(box, w, o, nrow, ncon, fast)
     njrow = sw.row_impulse.shape[0]

@@ -67,7 +67,8 @@ class QueryMixin:
         Lemke: Lemke failed, the contacts had more rows than the exact path takes
         (``solvers.mlcp.EXACT_MAX_ROWS``, 512: about 170 contacts), or the world was backing
         off after failures (after a failure a world skips Lemke for 1, 2, 4, ... up to
-        ``solve.LEMKE_BACKOFF_MAX`` steps while it keeps failing; ``tumble.pipeline.solve``)."""
+        ``solve.LEMKE_BACKOFF_MAX``, 1,024, steps while it keeps failing, and tries again at
+        once when it has fewer contacts than on those failures; ``tumble.pipeline.solve``)."""
         return int(self._state.lcp_fallbacks.sum())
 
     def raycast(self, origin, direction, max_dist=1e6, *, exclude_body=None, world=None):
