@@ -68,8 +68,7 @@ def solve_rows(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o, caches, ba
         status = solve_mlcp(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp,
                             np.int64(0), caches[1], fast_status != FAST_GUESS_FAILED)
         if status == LEMKE_SOLVED:
-            backoff[1] = 0
-            backoff[2] = 0
+            clear_backoff(backoff)
             return 0
         if status != LEMKE_TOO_LARGE:       # (a refusal by size cost nothing: no back-off)
             backoff[1] = min(max(2 * backoff[1], np.int64(1)), np.int64(LEMKE_BACKOFF_MAX))
@@ -78,6 +77,14 @@ def solve_rows(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o, caches, ba
     solve_pgs(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp, o.iterations,
               o.tolerance, o.warm_start)
     return 1
+
+
+@noalloc
+def clear_backoff(backoff):
+    """After an exact solve (Lemke's or ``solve_fast``'s): no steps to skip, no window, no
+    failure's contact count (``backoff``: see ``solve_rows``)."""
+    for k in range(backoff.shape[0]):
+        backoff[k] = 0
 
 
 @noalloc

@@ -63,7 +63,7 @@ from .forces import accumulate_forces
 from .integrate import first_bad_body, integrate_positions, integrate_velocities
 from .joints.rows import build_joint_rows, joint_coordinates, joint_reactions
 from .joints.servo import JointDrive
-from .solve import solve_fast, solve_rows
+from .solve import clear_backoff, solve_fast, solve_rows
 from .solvers.common import world_inverse_inertia
 from .sleep import freeze, sleep_islands
 from .solvers.mlcp import FAST_SOLVED
@@ -243,9 +243,7 @@ def solve_stage(box, w, k, n, o):
     fast = solve_fast(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o, caches,
                       work.fast)
     if fast == FAST_SOLVED:
-        sw.lcp_backoff[0] = 0           # solved exactly: no back-off from Lemke
-        sw.lcp_backoff[1] = 0
-        sw.lcp_backoff[2] = 0
+        clear_backoff(sw.lcp_backoff)   # solved exactly: no back-off from Lemke
     else:
         _solve_rows(box, w, o, nrow, ncon, fast)
     njrow = sw.row_impulse.shape[0]

@@ -313,17 +313,17 @@ def _regularised_lcp(rows, part, S, cvec, impulse, max_pivots, p_n):
     (about 1e-5 / m_eff m/s per N s: micrometres a second for a character's contacts).
     Returns Lemke's status."""
     kind, oth, nn = part.kind, part.oth, part.nn
+    diagonal = np.empty(nn)             # restored as it was, bit for bit
     smax = 0.0
     for a in range(nn):
+        diagonal[a] = S[a, a]
         smax = max(smax, S[a, a])
-    eps = REGULARISED_CFM * smax
     for a in range(nn):
         if kind[oth[a]] == KIND_FRICTION or kind[oth[a]] == KIND_UNILATERAL:
-            S[a, a] += eps
+            S[a, a] += REGULARISED_CFM * smax
     status = pyramid_lcp(rows, part, S, cvec, impulse, max_pivots, np.bool_(False), p_n)
     for a in range(nn):
-        if kind[oth[a]] == KIND_FRICTION or kind[oth[a]] == KIND_UNILATERAL:
-            S[a, a] -= eps
+        S[a, a] = diagonal[a]
     return status
 
 
