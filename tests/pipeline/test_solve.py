@@ -15,10 +15,10 @@ from tumble.pipeline.solve import LEMKE_BACKOFF_MAX
 from tumble.pipeline.solvers.mlcp import EXACT_MAX_ROWS
 
 
-def knocked_over():
+def knocked_over(contact="lcp"):
     """The course ragdoll, servos holding its pose, knocked over and lying on the ground
-    (contact='lcp', 1/60 s)."""
-    w = games105_ragdoll().make_world(dt=1 / 60, contact="lcp")
+    (1/60 s)."""
+    w = games105_ragdoll().make_world(dt=1 / 60, contact=contact)
     for j in w.model.joint_names[1:]:
         w.set_pd_gains(j, 500.0, 50.0)
     w.body_vel[:, 0] = 2.0                        # knocked over forwards

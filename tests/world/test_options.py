@@ -35,6 +35,7 @@ def test_keywords_become_options_and_attributes():
     ("broadphase", "bvh", "broadphase must be one of"),
     ("penalty_stiffness", -3.0, "penalty_stiffness must be finite and > 0"),
     ("profile", "yes", "profile must be True or False"),
+    ("velocity_tolerance", -1e-5, "velocity_tolerance must be"),
 ])
 def test_a_bad_value_is_refused_and_changes_nothing(name, value, message):
     w = tumble.World(small_model())

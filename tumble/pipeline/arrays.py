@@ -27,7 +27,8 @@ STAGES = ("collide", "forces", "integrate_velocities", "rows", "solve",
 
 StepOptions = namedtuple("StepOptions", [
     "dt", "gyroscopic", "quat_integration", "divergence_limit",
-    "erp", "cfm", "solver", "iterations", "tolerance", "warm_start", "projection",
+    "erp", "cfm", "solver", "iterations", "tolerance", "velocity_tolerance",
+    "warm_start", "projection",
     "projection_tolerance", "contact", "contact_erp", "contact_cfm", "slop",
     "bounce_threshold", "penalty_k", "penalty_c", "v_slip", "contact_margin", "pd_mode",
     "broadphase", "profile", "sleep_time", "sleep_speed", "sleep_spin"])

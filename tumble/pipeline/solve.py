@@ -52,7 +52,7 @@ def solve_rows(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o, caches, ba
     Returns 1 when PGS stood in for the exact (Lemke) solve, else 0."""
     if o.contact == CONTACT_PGS or (o.solver == SOLVER_PGS and ncon == 0):
         solve_pgs(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp, o.iterations,
-                  o.tolerance, o.warm_start)
+                  o.tolerance, o.velocity_tolerance, o.warm_start)
         return 0
     if ncon == 0 or o.contact == CONTACT_PENALTY:
         solve_direct(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp, o.tolerance,
@@ -75,7 +75,7 @@ def solve_rows(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o, caches, ba
             backoff[0] = backoff[1]
             backoff[2] = ncon if backoff[2] == 0 else min(backoff[2], ncon)
     solve_pgs(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp, o.iterations,
-              o.tolerance, o.warm_start)
+              o.tolerance, o.velocity_tolerance, o.warm_start)
     return 1
 
 

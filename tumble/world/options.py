@@ -75,7 +75,7 @@ _CHECKS = {
     "dt": _pos, "contact": _choice(CONTACT_MODELS), "gyroscopic": _choice(GYROSCOPIC),
     "quat_integration": _choice(QUAT_INTEGRATION), "divergence_limit": _pos,
     "solver": _choice(SOLVERS), "erp": _fraction, "cfm": _nonneg, "iterations": _count(1),
-    "tolerance": _nonneg, "warm_start": _flag, "projection": _count(0),
+    "tolerance": _nonneg, "velocity_tolerance": _nonneg, "warm_start": _flag, "projection": _count(0),
     "projection_tolerance": _nonneg, "contact_erp": _fraction, "contact_cfm": _nonneg,
     "slop": _nonneg, "bounce_threshold": _nonneg, "penalty_stiffness": _optional(_pos),
     "penalty_damping": _optional(_nonneg), "slip_velocity": _optional(_pos),
@@ -102,7 +102,12 @@ class Options:
         motors) or 'pgs' (projected Gauss-Seidel, warm-started).
     erp, cfm : ODE's error reduction (0..1, default 0.2) and constraint force mixing (default
         1e-10) for every joint that does not set its own.
-    iterations, tolerance : PGS sweeps at most, and the impulse change (N s) that ends them.
+    iterations, tolerance, velocity_tolerance : PGS sweeps at most, and what ends them
+        sooner: a sweep that changes no impulse by more than ``tolerance`` (N s), or no
+        row's velocity by more than ``velocity_tolerance`` (m/s, rad/s for angular rows;
+        0 to sweep on). The second ends PGS on a heap of redundant contacts (a character
+        lying down), whose impulses keep shifting among themselves for hundreds of sweeps
+        after the bodies' velocities have settled.
     warm_start : start PGS from the previous step's impulses.
     projection : Gauss-Newton iterations that move joints back together after each position
         update without touching velocities (post-stabilisation; 0 to rely on ERP alone).
@@ -154,6 +159,7 @@ class Options:
     cfm: float = 1e-10
     iterations: int = 300
     tolerance: float = 1e-12
+    velocity_tolerance: float = 1e-5
     warm_start: bool = True
     projection: int = 2
     projection_tolerance: float = 5e-5
@@ -201,7 +207,7 @@ def step_options(options, lightest_mass):
     return StepOptions(
         float(o.dt), GYROSCOPIC[o.gyroscopic], QUAT_INTEGRATION[o.quat_integration],
         float(o.divergence_limit), float(o.erp), float(o.cfm), SOLVERS[o.solver],
-        int(o.iterations), float(o.tolerance), bool(o.warm_start), int(o.projection),
+        int(o.iterations), float(o.tolerance), float(o.velocity_tolerance), bool(o.warm_start), int(o.projection),
         float(o.projection_tolerance), CONTACT_MODELS[o.contact], float(o.contact_erp),
         float(o.contact_cfm), float(o.slop), float(o.bounce_threshold), float(k), float(c),
         float(v_slip), float(o.contact_margin), PD_MODES[o.pd], BROADPHASES[o.broadphase],

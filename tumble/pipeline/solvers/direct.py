@@ -382,7 +382,7 @@ def _polish(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, tolerance):
     _unapply(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, np.zeros(12))
     # (np.int64 / np.bool_: typed like the step's own call, so no second compilation)
     solve_pgs(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, np.int64(200), tolerance,
-              np.bool_(True))
+              0.0, np.bool_(True))
 
 
 @noalloc

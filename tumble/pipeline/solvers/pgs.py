@@ -13,20 +13,23 @@ from .common import Bodies, apply_impulse, minv_jt, row_active
 
 @njit(cache=True)
 def solve_pgs(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, iterations, tolerance,
-              warm_start):
+              velocity_tolerance, warm_start):
     """Solve the rows in place; returns the number of sweeps taken.
 
     impulse (nrow,) holds last step's impulses on entry (used if ``warm_start``) and this
-    step's on exit. Sweeps stop when no impulse changes by more than ``tolerance`` (N s).
+    step's on exit. Sweeps stop when no impulse changes by more than ``tolerance`` (N s),
+    or no row's velocity by more than ``velocity_tolerance`` (m/s or rad/s: the change
+    of the row's impulse times its ``J M^-1 J^T + cfm``).
     """
     dv = np.zeros((nrow, 12))
     inv_diag = np.zeros(nrow)
     return _pgs(rows, nrow, Bodies(inv_mass, inv_inertia, vel, angvel), impulse, iterations,
-                tolerance, warm_start, dv, inv_diag)
+                tolerance, velocity_tolerance, warm_start, dv, inv_diag)
 
 
 @noalloc
-def _pgs(rows, nrow, bodies, impulse, iterations, tolerance, warm_start, dv, inv_diag):
+def _pgs(rows, nrow, bodies, impulse, iterations, tolerance, velocity_tolerance, warm_start,
+         dv, inv_diag):
     """``solve_pgs`` with its work arrays: dv (nrow, 12) and inv_diag (nrow,), which
     receive each row's ``M^-1 J^T`` and ``1 / (J M^-1 J^T + cfm)`` (0 for a row that moves
     nothing)."""
@@ -60,7 +63,9 @@ def _pgs(rows, nrow, bodies, impulse, iterations, tolerance, warm_start, dv, inv
     sweeps = 0
     for it in range(iterations):
         sweeps = it + 1
-        if _sweep(rows, nrow, impulse, dv, inv_diag, vel, angvel) <= tolerance:
+        biggest, unsettled = _sweep(rows, nrow, impulse, dv, inv_diag, vel, angvel,
+                                    velocity_tolerance)
+        if biggest <= tolerance or not unsettled:
             break
     return sweeps
 
@@ -75,14 +80,17 @@ def _friction_bounds(rows, impulse, r):
 
 
 @noalloc
-def _sweep(rows, nrow, impulse, dv, inv_diag, vel, angvel):
-    """One Gauss-Seidel sweep over the rows; returns the largest impulse change.
+def _sweep(rows, nrow, impulse, dv, inv_diag, vel, angvel, velocity_tolerance):
+    """One Gauss-Seidel sweep over the rows; returns the largest impulse change, and
+    whether some row's velocity changed by more than ``velocity_tolerance`` (its impulse
+    change over ``inv_diag``).
 
     Consecutive rows on the same two bodies (a contact's normal and friction rows, a
     joint's rows, a body servo's) are swept with the bodies' velocities held in locals and
     stored once: a contact's three rows load and store them once. (No row joins a body to
     itself: the builder refuses such joints and collision filters such pairs.)"""
     biggest = 0.0
+    unsettled = False
     r = 0
     while r < nrow:
         a, b = rows.body_a[r], rows.body_b[r]
@@ -123,6 +131,7 @@ def _sweep(rows, nrow, impulse, dv, inv_diag, vel, angvel):
                     vb = (vb[0] + d[6] * delta, vb[1] + d[7] * delta, vb[2] + d[8] * delta)
                     wb = (wb[0] + d[9] * delta, wb[1] + d[10] * delta, wb[2] + d[11] * delta)
                 biggest = max(biggest, abs(delta))
+                unsettled = unsettled or abs(delta) > velocity_tolerance * inv_diag[q]
         if a >= 0:
             for k in range(3):
                 vel[a, k] = va[k]
@@ -132,4 +141,4 @@ def _sweep(rows, nrow, impulse, dv, inv_diag, vel, angvel):
                 vel[b, k] = vb[k]
                 angvel[b, k] = wb[k]
         r = end
-    return biggest
+    return biggest, unsettled
