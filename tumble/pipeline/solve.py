@@ -16,8 +16,10 @@ corners) makes Lemke fail step after step, each failure costing several times a 
 back-off keeps that cost to one attempt in ``LEMKE_BACKOFF_MAX + 1`` steps. A step with
 fewer contacts than any failure since the last exact solve tries Lemke at once: a
 character that gets up from the heap is exact again in the step its contacts drop
-(``solve_fast``, tried on every step, guesses from last step's impulses, which PGS's do
-not give it). A refusal by size (``LEMKE_TOO_LARGE``: more rows than ``EXACT_MAX_ROWS``)
+(``solve_fast`` guesses from last step's impulses, which PGS's do not give it). While a
+world backs off, ``solve_fast`` is not tried either: on the heaps measured (six falls of
+the passive ragdoll, the fallen course character) it never solved a step that PGS stood
+in for, and its failed guess cost a third of the heap's step. A refusal by size (``LEMKE_TOO_LARGE``: more rows than ``EXACT_MAX_ROWS``)
 starts no back-off, since it costs nothing: a scene that comes under the limit is solved
 exactly at once.
 """
@@ -60,7 +62,7 @@ def solve_rows(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o, caches, ba
         return 0
     # exact: the mixed LCP by Lemke (unless backing off); if Lemke reports failure, PGS
     # from the warm start
-    if backoff[0] > 0 and ncon < backoff[2]:
+    if backoff[0] > 0 and not backing_off(backoff, ncon):
         backoff[0] = 0          # fewer contacts than on any failure since the last solve
     if backoff[0] > 0:
         backoff[0] -= 1
@@ -87,13 +89,21 @@ def clear_backoff(backoff):
         backoff[k] = 0
 
 
+@njit(cache=True, inline="always")
+def backing_off(backoff, ncon):
+    """Whether a step with ``ncon`` contacts skips Lemke (``backoff``: see ``solve_rows``):
+    steps are left in the window and there are no fewer contacts than at a failure."""
+    return backoff[0] > 0 and ncon >= backoff[2]
+
+
 @noalloc
-def solve_fast(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o, caches, fast):
+def solve_fast(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o, caches, fast, backoff):
     """``solve_rows``'s most common case, a character standing or walking on an exact (LCP)
     contact model, without allocating or reference counting (``mlcp.guess_on_tree_fast``).
+    Not tried while the world backs off from Lemke (``backoff``, module docstring).
     Returns its status: FAST_SOLVED when it solved the rows; otherwise everything is left
     to ``solve_rows`` (given the status)."""
-    if o.contact != CONTACT_LCP or ncon == 0:
+    if o.contact != CONTACT_LCP or ncon == 0 or backing_off(backoff, ncon):
         return FAST_NOT_HANDLED
     return guess_on_tree_fast(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp,
                               caches[1], fast)

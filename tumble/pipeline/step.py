@@ -241,7 +241,7 @@ def solve_stage(box, w, k, n, o):
     vel, angvel = sw.body_vel, sw.body_angvel
     rows, imp, inv_inertia, caches = work.rows, work.imp, work.inv_inertia, work.caches
     fast = solve_fast(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o, caches,
-                      work.fast)
+                      work.fast, sw.lcp_backoff)
     if fast == FAST_SOLVED:
         clear_backoff(sw.lcp_backoff)   # solved exactly: no back-off from Lemke
     else:
