@@ -471,3 +471,34 @@ def test_survives_pushes(direction, force):
 def test_walks_at_a_physics_step_of_1_120_s():
     c, r = _walk(8.0, dt=1.0 / 120.0)
     assert r.forward_distance > 3.0
+
+
+PUSH_AT = 5.1                   # s: the left leg stands then
+
+
+def test_early_touch_down_recovers_from_a_sideways_push_toward_the_stance_side():
+    """A 0.2 s push of 350 N to the left at the chest while the left leg stands (the push
+    toward the stance side, which the swing foot may not step across). With the early
+    touch-down off (``early_cross`` infinite: the controller as it was) the character falls;
+    with it the right foot is put down early, the left leg takes the wide step, and the
+    walk goes on (bench/bench_walk.py's survival counts: 111 -> 136 of 192 pushes)."""
+    c = make_generalized()
+    c.place()
+    while c.time < PUSH_AT - 1e-9:
+        c.step()
+    assert c.stance == 0                                        # LEFT: the push's side
+    snap = c.snapshot()
+    outcome = {}
+    for label, cross in (("off", math.inf), ("on", c.early_cross)):
+        c.restore(snap)
+        c.early_cross = cross
+        pushes = [Push("lowerback_torso", (350.0, 0.0, 0.0), c.world.time, 0.2)]
+        early, was = 0, False
+        while c.time < PUSH_AT + 5.0 - 1e-9 and not c.fallen:
+            c.step(pushes)
+            early += c.early and not was
+            was = c.early
+        outcome[label] = (c.fallen, early)
+    assert outcome["off"] == (True, 0)
+    fallen, early = outcome["on"]
+    assert not fallen and early >= 1

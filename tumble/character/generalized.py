@@ -19,6 +19,13 @@ foot is placed and how the body is helped along:
   and corrected step to step by integrals of the speed errors (``speed_gain``,
   ``side_gain``: the commanded speeds are walked whatever the pendulum's errors). From
   ``freeze_phase`` on the step is held in the world, so the foot lands still.
+- Early touch-down (beyond the paper): after a push toward the stance side the coronal
+  capture point ``x + v sqrt(h/g)`` lies beyond the stance ankle, and the step the
+  pendulum wants is across the stance foot, which the no-crossing rule refuses. The swing
+  foot, if it is near the stance foot, is then put down at once (its phase jumps ahead, the
+  rest of the step is short, the step ends when it bears weight), so that the other leg,
+  on the pushed side, swings now and takes the wide step. Not when the COM is much faster
+  forward than the command: that step must reach forward, and a short step lands behind.
 - The swing ankle follows a trajectory from its lift-off place to that step (a horizontal
   blend, eased by ``swing_ease`` so the leg is not thrown forward at lift-off, whose
   reaction the stance hip would pass to the ground as a push forward; a height profile;
@@ -82,18 +89,39 @@ class GeneralizedController(SimbiconController):
     world, ragdoll, control_dt, biped, terrain, fall_height : as SimbiconController's.
     style : a Style, a shipped style name (``style_names()``) or a JSON path.
     speed, side_speed, turn_rate : override the style's commands (m/s, m/s, rad/s).
+    early_cross, early_after, early_near, early_ahead, early_phase, early_time, early_load :
+    the early touch-down after a push toward the stance side (see the module docs): it
+    starts when the coronal capture point is more than ``early_cross`` m beyond the stance
+    ankle (toward the stance side; None: never), at least ``early_after`` s into the step
+    and before the phase ``early_phase``, with the swing ankle less than ``early_near`` m
+    outward of the stance ankle and the COM less than ``early_ahead`` m/s faster forward
+    than the command; the phase jumps to ``early_phase``, the step's duration becomes at
+    most ``early_time`` s, and the step ends when the swing foot bears ``early_load`` of the
+    body's weight.
 
     Use as SimbiconController: ``place()`` then ``step()``, or ``run_walk``. After each
     ``control()``: ``last_plan`` (the ``ipm.StepPlan``), ``last_target`` (the swing ankle's
     target, world), ``last_ik`` (``ipm.IKResult``), ``last_force`` (the velocity-tuning
     force, world N), ``last_tau`` ({'gravity', 'velocity', 'stance_feedforward'}: the
-    virtual-force joint torques, (njoint, 3) world N m), ``phase``.
+    virtual-force joint torques, (njoint, 3) world N m), ``phase``, ``cp_out`` (m, the
+    coronal capture point beyond the stance ankle toward the stance side), ``early`` (this
+    step is an early touch-down).
     """
 
     def __init__(self, world, ragdoll, style="ipm_walk", *, control_dt=1.0 / 60.0,
                  biped=None, terrain=None, fall_height=0.55, speed=None, side_speed=None,
-                 turn_rate=None):
+                 turn_rate=None, early_cross=0.05, early_phase=0.75, early_time=0.2,
+                 early_after=0.1, early_near=0.2, early_load=0.6, early_ahead=0.3):
         self._overrides = {"speed": speed, "side_speed": side_speed, "turn_rate": turn_rate}
+        # step timing for recovery (see control()); early_cross None turns early
+        # touch-down off
+        self.early_cross = math.inf if early_cross is None else float(early_cross)
+        self.early_phase = float(early_phase)
+        self.early_time = float(early_time)
+        self.early_after = float(early_after)
+        self.early_near = float(early_near)
+        self.early_load = float(early_load)
+        self.early_ahead = float(early_ahead)
         super().__init__(world, ragdoll, style, control_dt=control_dt, hip_control="implicit",
                          biped=biped, terrain=terrain, fall_height=fall_height)
 
@@ -200,9 +228,12 @@ class GeneralizedController(SimbiconController):
         self._anchors_now = None
         self.last_ik = None
         self.last_force = np.zeros(3)
+        self.early = False
+        self.cp_out = 0.0
 
     _SNAP_FIELDS = SimbiconController._SNAP_FIELDS + (
-        "phase", "adjust", "command", "frozen_plan", "strike_knee", "swing_start", "swing_start_ground", "_stride_start")
+        "phase", "adjust", "command", "frozen_plan", "strike_knee", "swing_start",
+        "swing_start_ground", "_stride_start", "early")
 
     def place(self, *, speed=0.0, pose=None, position=(0.0, 0.0), yaw=0.0, drop=0.001,
               lean=None):
@@ -277,8 +308,11 @@ class GeneralizedController(SimbiconController):
         s = self.gait
         self.phase_time += self.control_dt
         self.phase += self.control_dt / self.step_duration
-        if ((self.phase >= s.min_phase and self._foot_on_ground(1 - self.stance))
-                or self.phase >= s.max_phase):
+        # an early touch-down ends the step when the foot bears early_load of the weight
+        # (a foot that only grazes the ground would leave the body on no leg)
+        landed = (self.foot_load(1 - self.stance) > self.early_load * self._weight
+                  if self.early else self._foot_on_ground(1 - self.stance))
+        if (self.phase >= s.min_phase and landed) or self.phase >= s.max_phase:
             self._switch_stance()
 
     def _switch_stance(self):
@@ -310,6 +344,7 @@ class GeneralizedController(SimbiconController):
         self.swing_start = self._anchor(self.ankle[swing]).copy()
         self.swing_start_ground = self.ground_height(self.swing_start)
         self.frozen_plan = None
+        self.early = False
         self.strike_knee = self._knee_flex(self.stance)
         self._apply_gains()
 
@@ -424,6 +459,8 @@ class GeneralizedController(SimbiconController):
         base = s.step_time - s.step_time_speed * abs(float(self.command[0]))
         self.step_duration = max(base - s.hurry * max(v_off - s.hurry_deadband, 0.0),
                                  min(s.min_step_time, s.step_time))
+        if self.early:
+            self.step_duration = min(self.step_duration, self.early_time)
         phase = self.phase
         # the commanded velocity, reached at a bounded acceleration
         goal = np.array([s.speed, s.side_speed])
@@ -437,6 +474,27 @@ class GeneralizedController(SimbiconController):
         frozen = self.frozen_plan if phase >= s.freeze_phase else None
         plan, target = self._swing_ankle_target(com, vcom, ankle, fwd, left, phase, h, sgn_sw,
                                                 frozen)
+        # the coronal capture point beyond the stance ankle, toward the stance side (m): > 0,
+        # the pendulum falls over the stance foot's outer side and will not swing back
+        xi = com + vcom * math.sqrt(max(h, 0.1) / 9.81)
+        self.cp_out = -sgn_sw * float((xi - ankle) @ left)
+        # how far outward of the stance ankle the swing ankle is now (m)
+        near = sgn_sw * float((anchors[self.ankle[swing]] - ankle) @ left)
+        # (only before early_phase: a step nearly done lands anyway, and one past its end is
+        # looking for a late ground, where a loaded landing is not to be waited for)
+        if (not self.early and self.cp_out > self.early_cross and phase < self.early_phase
+                and self.phase_time >= self.early_after and near < self.early_near
+                and float(v_heading[0] - self.command[0]) < self.early_ahead):
+            # Early touch-down: the pendulum wants the step across the stance foot (a push
+            # toward the stance side), which the swing foot may not take. Put it down now,
+            # outward of the stance foot, so that the other leg, on the pushed side, swings
+            # at once and takes the wide step, instead of after the rest of this swing.
+            self.early = True
+            self.step_duration = min(self.step_duration, self.early_time)
+            phase = self.phase = self.early_phase
+            frozen = self.frozen_plan if phase >= s.freeze_phase else None
+            plan, target = self._swing_ankle_target(com, vcom, ankle, fwd, left, phase, h,
+                                                    sgn_sw, frozen)
         if phase >= s.freeze_phase and self.frozen_plan is None:
             self.frozen_plan = plan
         hw, hs = self.hip[swing], self.hip[stance]
