@@ -452,9 +452,10 @@ def test_turns_at_the_commanded_rate():
                                               ((1, 0, 0), 250.0), ((-1, 0, 0), 150.0)],
                          ids=["forward", "backward", "left", "right"])
 def test_survives_pushes(direction, force):
-    """0.2 s at the chest after 5 s of walking, with a margin at this push time (it survives
-    up to 550, 500, 300 and 200 N here; sideways is where it is weakest, and a push toward
-    the stance side, which the swing foot cannot step across, is the hardest);
+    """0.2 s at the chest after 5 s of walking, with a margin at this push time (in 50 N
+    steps it survives up to 550, 500, 350 and 250 N here, the last also 350-400 N but not
+    300; sideways is where it is weakest, and a push toward the stance side, which the
+    swing foot cannot step across, is the hardest);
     bench/bench_walk.py counts pushes survived over 8 push times of a stride and 8
     directions."""
     c = make_generalized()
