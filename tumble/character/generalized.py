@@ -459,8 +459,6 @@ class GeneralizedController(SimbiconController):
         base = s.step_time - s.step_time_speed * abs(float(self.command[0]))
         self.step_duration = max(base - s.hurry * max(v_off - s.hurry_deadband, 0.0),
                                  min(s.min_step_time, s.step_time))
-        if self.early:
-            self.step_duration = min(self.step_duration, self.early_time)
         phase = self.phase
         # the commanded velocity, reached at a bounded acceleration
         goal = np.array([s.speed, s.side_speed])
@@ -468,12 +466,6 @@ class GeneralizedController(SimbiconController):
         n = float(np.linalg.norm(dv))
         lim = s.accel * self.control_dt
         self.command = goal if n <= lim else self.command + dv * (lim / n)
-        # ---- foot placement and the swing trajectory
-        # the step is replanned every period until ``freeze_phase``, then held in the world
-        # until the phase ends (a late ground: replanned again)
-        frozen = self.frozen_plan if phase >= s.freeze_phase else None
-        plan, target = self._swing_ankle_target(com, vcom, ankle, fwd, left, phase, h, sgn_sw,
-                                                frozen)
         # the coronal capture point beyond the stance ankle, toward the stance side (m): > 0,
         # the pendulum falls over the stance foot's outer side and will not swing back
         xi = com + vcom * math.sqrt(max(h, 0.1) / 9.81)
@@ -490,11 +482,15 @@ class GeneralizedController(SimbiconController):
             # outward of the stance foot, so that the other leg, on the pushed side, swings
             # at once and takes the wide step, instead of after the rest of this swing.
             self.early = True
-            self.step_duration = min(self.step_duration, self.early_time)
             phase = self.phase = self.early_phase
-            frozen = self.frozen_plan if phase >= s.freeze_phase else None
-            plan, target = self._swing_ankle_target(com, vcom, ankle, fwd, left, phase, h,
-                                                    sgn_sw, frozen)
+        if self.early:
+            self.step_duration = min(self.step_duration, self.early_time)
+        # ---- foot placement and the swing trajectory
+        # the step is replanned every period until ``freeze_phase``, then held in the world
+        # until the phase ends (a late ground: replanned again)
+        frozen = self.frozen_plan if phase >= s.freeze_phase else None
+        plan, target = self._swing_ankle_target(com, vcom, ankle, fwd, left, phase, h, sgn_sw,
+                                                frozen)
         if phase >= s.freeze_phase and self.frozen_plan is None:
             self.frozen_plan = plan
         hw, hs = self.hip[swing], self.hip[stance]

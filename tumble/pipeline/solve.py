@@ -62,11 +62,10 @@ def solve_rows(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o, caches, ba
         return 0
     # exact: the mixed LCP by Lemke (unless backing off); if Lemke reports failure, PGS
     # from the warm start
-    if backoff[0] > 0 and not backing_off(backoff, ncon):
-        backoff[0] = 0          # fewer contacts than on any failure since the last solve
-    if backoff[0] > 0:
+    if backing_off(backoff, ncon):
         backoff[0] -= 1
     else:
+        backoff[0] = 0          # a window ends early with fewer contacts than at a failure
         status = solve_mlcp(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp,
                             np.int64(0), caches[1], fast_status != FAST_GUESS_FAILED)
         if status == LEMKE_SOLVED:
