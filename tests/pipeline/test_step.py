@@ -62,9 +62,9 @@ def test_a_diverging_call_is_undone_array_for_array():
     assert w.time == time
 
 
-def ragdoll_world(contact):
+def ragdoll_world(contact="lcp", **options):
     rd = tumble.games105_ragdoll()
-    return rd.make_world(dt=1 / 60, contact=contact)
+    return rd.make_world(dt=1 / 60, contact=contact, **options)
 
 
 def snapshot(w):
@@ -120,7 +120,7 @@ def test_chunking_does_not_change_a_bit(contact):
 def test_the_stage_functions_run_in_the_timer_s_order():
     """``step_worlds`` calls the stages by their place in ``arrays.STAGES`` (the timer's
     order) and each returns int64 as declared: the functions are listed in that order."""
-    from tumble.pipeline.step import STAGE_FUNCTIONS, StageAddresses
+    from tumble.pipeline.step import BRANCH_FUNCTIONS, BRANCHES, STAGE_FUNCTIONS, StageAddresses
     pairs = [(timed, f.__name__) for timed, f in zip(STAGES, STAGE_FUNCTIONS)]
     assert pairs == [("collide", "collide_stage"), ("forces", "forces_stage"),
                      ("integrate_velocities", "integrate_velocities_stage"),
@@ -128,7 +128,8 @@ def test_the_stage_functions_run_in_the_timer_s_order():
                      ("integrate_positions", "integrate_positions_stage"),
                      ("project_joints", "project_stage"), ("divergence_check", "check_stage"),
                      ("joint_coordinates", "coordinates_stage")]
-    assert StageAddresses._fields == STAGES
+    assert StageAddresses._fields == STAGES + BRANCHES
+    assert [f.__name__ for f in BRANCH_FUNCTIONS] == list(BRANCHES)
 
 
 def test_a_stage_with_another_result_type_is_refused(monkeypatch):
@@ -151,3 +152,52 @@ def test_a_stage_with_another_result_type_is_refused(monkeypatch):
     monkeypatch.setattr(step, "STAGE_FUNCTIONS", (returns_a_float,) + step.STAGE_FUNCTIONS[1:])
     with pytest.raises(TypeError, match="returns_a_float returns float64, not int64"):
         step.stage_addresses(box, o)
+
+
+def bodies_on_a_heightfield():
+    """A box and a ball on a heightfield: the general collision route."""
+    b = tumble.ModelBuilder()
+    b.add_geom(None, "heightfield", size=(2.0, 2.0, 0.5),
+               heights=np.zeros((8, 8)))
+    box = b.add_body("box", pos=(0.2, 0, 0.12), mass=1.0, inertia=(0.01, 0.01, 0.01))
+    b.add_geom(box, "box", size=(0.1, 0.1, 0.1))
+    return b.build()
+
+
+def test_a_world_compiles_the_branches_its_model_and_options_take():
+    """The stages' rarer paths compile only for worlds that take them: the exact solve
+    always; the general collision for a model that is not all listed primitive pairs;
+    penalty contacts and stable PD when the options ask."""
+    from tumble.pipeline.step import wanted_branches
+    plain = pendulum_and_box()
+    assert wanted_branches(plain.model.arrays, plain.step_options()) == ("exact_solve",)
+    both = pendulum_and_box(contact="penalty", pd="stable")
+    assert set(wanted_branches(both.model.arrays, both.step_options())) == {
+        "exact_solve", "penalty_contact_forces", "stable_pd_forces"}
+    terrain = tumble.World(bodies_on_a_heightfield())
+    assert set(wanted_branches(terrain.model.arrays, terrain.step_options())) == {
+        "exact_solve", "general_collide"}
+    terrain.step(30)                      # it lands on the terrain through the branch
+    assert terrain.state_arrays.contact_count[0] > 0
+    assert abs(terrain.body_pos[0, 2] - 0.1) < 0.01
+
+
+@pytest.mark.parametrize("branch, options", [
+    ("stable_pd_forces", dict(pd="stable")), ("exact_solve", dict(contact="lcp")),
+    ("penalty_contact_forces", dict(contact="penalty"))])
+def test_a_branch_missing_from_the_call_is_compiled_and_the_step_taken_again(branch, options):
+    """A step that reaches a branch its call has no code for (options changed after the
+    stages were compiled, say) is undone, the branch compiled, the step taken again: the
+    world steps on bit for bit as its twin that had the branch from the start."""
+    w, twin = ragdoll_world(**options), ragdoll_world(**options)
+    for x in (w, twin):
+        x.set_pd_gains("lKnee", 300.0, 30.0)
+        x.step(5)
+    assert w._stages is not None and getattr(w._stages, branch) != 0
+    w._stages = w._stages._replace(**{branch: 0})
+    w.step(20)
+    twin.step(20)
+    assert branch in w._branches_taken and getattr(w._stages, branch) != 0
+    for a, b in zip(w.state_arrays, twin.state_arrays):
+        np.testing.assert_array_equal(a, b)
+    assert w.time == twin.time

@@ -121,11 +121,13 @@ def step_span_signature(box, o):
             types.int64, typeof(o), types.boolean)
 
 
-def step_code(box, o):
-    """The stages' compiled code for the box ``box`` and options ``o``
-    (``step.stage_addresses``), with ``step_span`` compiled for them meanwhile (or loaded:
-    in this process while worker processes compile the stages on a cold start)."""
-    return stage_addresses(box, o, meanwhile=[(step_span, step_span_signature(box, o))])
+def step_code(box, o, branches):
+    """The stages' compiled code for the box ``box`` and options ``o``, with the branches
+    named in ``branches`` (``step.stage_addresses``), and ``step_span`` compiled for them
+    meanwhile (or loaded: in this process while worker processes compile the stages on a
+    cold start)."""
+    return stage_addresses(box, o, branches,
+                           meanwhile=[(step_span, step_span_signature(box, o))])
 
 
 @noalloc(inline="always")

@@ -82,11 +82,12 @@ def box_parallel_args(s, c, con, spans):
     return ArgBox((s, c, con, spans))
 
 
-def span_addresses(spans, o):
+def span_addresses(spans, o, branches):
     """The compiled code ``step_boxed_parallel`` calls on each thread for the spans
     ``spans`` (``make_spans``) and options ``o``, compiled now if it is not yet: the
-    address of ``call.step_span``'s and the stages' (``step.stage_addresses``)."""
-    stages = step_code(spans[0], o)
+    address of ``call.step_span``'s and the stages' with the branches named in
+    ``branches`` (``step.stage_addresses``)."""
+    stages = step_code(spans[0], o, branches)
     return compiled_address(step_span, step_span_signature(spans[0], o)), stages
 
 

@@ -40,6 +40,16 @@ parallel processes on a cold start: ``tumble._compile``), and the step above the
 seconds. What a stage hands the next within a world's step (the contact count, the row
 count, ...) goes through ``work.carry``.
 
+Paths only some worlds take are the stages' *branches* (``BRANCHES``: the general
+collision of convex hulls, heightfields and the broad phase; sleeping; penalty contacts;
+stable PD; the exact solve behind ``solve_fast``), each a compiled function of the same
+signature that its stage calls through an address ``step_worlds`` hands it in
+``work.carry``. A world compiles the branches its model and options call for
+(``wanted_branches``) with the stages; one it takes unforeseen (its options changed, say)
+returns STEP_MORE_CODE, and ``World`` compiles it and steps again, the call undone as for
+a buffer too small. A character on a plane thus never compiles convex-hull collision or
+stable PD (together 30% of a cold start's compile on the ragdoll).
+
 With ``StepOptions.profile`` the step adds the time of each stage (``arrays.STAGES``) to
 ``StateArrays.stage_ticks``, in ``_jit.ticks`` units.
 """
@@ -54,7 +64,8 @@ from .actuators import (PD_EXPLICIT, PD_IMPLICIT, PD_STABLE, actuator_forces, bo
                         stable_servo_forces)
 from .arrays import (CONTACT_PENALTY, STAGE_CHECK, STAGE_COLLIDE, STAGE_COORDINATES,
                      STAGE_FORCES, STAGES)
-from .collide import COLLIDE_OK, COLLIDE_PAIRS_FULL, collide_listed, collide_world
+from .collide import (COLLIDE_OK, COLLIDE_PAIRS_FULL, collide_listed, collide_world,
+                      listed_pairs, listed_primitives)
 from .contacts.arrays import copy_contact, pair_before
 from .contacts.pairs import ROWS_SPIN
 from .contacts.penalty import penalty_forces
@@ -69,10 +80,19 @@ from .sleep import freeze, sleep_islands
 from .solvers.mlcp import FAST_SOLVED
 from .stabilize import project_joints
 
-from .work import (CARRY_ASLEEP, CARRY_EXPLICIT_DRIVES, CARRY_NCON, CARRY_NEEDED, CARRY_NROW,
-                   CARRY_STABLE_PD)
+from .work import (BRANCH_COUNT, CARRY_ASLEEP, CARRY_BRANCH, CARRY_EXPLICIT_DRIVES, CARRY_FAST,
+                   CARRY_NCON, CARRY_NEEDED, CARRY_NROW, CARRY_STABLE_PD)
 
-STEP_OK, STEP_DIVERGED, STEP_MORE_PAIRS, STEP_MORE_CONTACTS = 0, 1, 2, 3
+STEP_OK, STEP_DIVERGED, STEP_MORE_PAIRS, STEP_MORE_CONTACTS, STEP_MORE_CODE = 0, 1, 2, 3, 4
+
+#: The stages' branches: paths only some worlds take, each a compiled function of the
+#: stages' signature called through its address, compiled only for worlds that take it
+#: (``wanted_branches``), or on the first step that does (STEP_MORE_CODE).
+BRANCHES = ("general_collide", "sleep", "penalty_contact_forces", "stable_pd_forces",
+            "exact_solve")
+(BRANCH_GENERAL_COLLIDE, BRANCH_SLEEP, BRANCH_PENALTY, BRANCH_STABLE_PD,
+ BRANCH_EXACT_SOLVE) = range(5)
+assert len(BRANCHES) == BRANCH_COUNT
 
 # What every stage returns (declared to ``_jit.call_address``).
 _RESULT = types.int64
@@ -133,6 +153,30 @@ def keep_previous_contacts(s, con, prev, sleeping):
         copy_contact(con, src, prev, q, sleeping)
 
 
+@njit(cache=True, inline="always")
+def _branch(work, branch, args):
+    """The stages' branch ``branch`` (``BRANCHES``) called with ``args``, through the
+    address ``step_worlds`` left in ``work.carry``; STEP_MORE_CODE (the branch in
+    CARRY_NEEDED) when this world's call has no code for it: ``World`` compiles it and
+    steps again (the call undone, as for a buffer too small)."""
+    address = work.carry[CARRY_BRANCH + branch]
+    if address == 0:
+        work.carry[CARRY_NEEDED] = branch
+        return np.int64(STEP_MORE_CODE)
+    return call_address(address, _RESULT, args)
+
+
+@njit(cache=True, inline="always")
+def _collided(work, code, ncon):
+    """Collide's status for ``collide_listed``'s or ``collide_world``'s (code, count): the
+    count into CARRY_NCON, or the buffer size needed into CARRY_NEEDED."""
+    if code == COLLIDE_OK:
+        work.carry[CARRY_NCON] = ncon
+        return np.int64(STEP_OK)
+    work.carry[CARRY_NEEDED] = ncon
+    return np.int64(STEP_MORE_PAIRS if code == COLLIDE_PAIRS_FULL else STEP_MORE_CONTACTS)
+
+
 # The stages. Each takes (box, w, k, n, o): the step's box, the world, the step (of n) and
 # the options; returns STEP_OK or what stops the step, as an int64 (``step_worlds`` calls
 # them declared so: ``stage_addresses`` checks). They allocate nothing (``noalloc``);
@@ -148,28 +192,22 @@ def collide_stage(box, w, k, n, o):
     ncon = np.int64(0)
     if m.geom_type.shape[0] > 1:
         keep_previous_contacts(sw, conw, work.prev, o.sleep_time > 0.0)
-        pos, quat = sw.body_pos, sw.body_quat
         if work.listed_primitive:
-            code, ncon = collide_listed(m, pos, quat, work.gpos, work.gquat, work.aabb_lo,
-                                        work.aabb_hi, pairs, conw, sw.contact_count[0],
-                                        work.prev, o.contact_margin, work.listed,
-                                        sw.body_rest, o.sleep_time)
+            code, ncon = collide_listed(m, sw.body_pos, sw.body_quat, work.gpos, work.gquat,
+                                        work.aabb_lo, work.aabb_hi, pairs, conw,
+                                        sw.contact_count[0], work.prev, o.contact_margin,
+                                        work.listed, sw.body_rest, o.sleep_time)
+            status = _collided(work, code, ncon)
         else:
-            code, ncon = collide_world(m, pos, quat, work.gpos, work.gquat, work.aabb_lo,
-                                       work.aabb_hi, pairs, conw, sw.contact_count[0],
-                                       work.prev, o.contact_margin, o.broadphase,
-                                       work.listed, sw.body_rest, o.sleep_time)
-        if code != COLLIDE_OK:
-            work.carry[CARRY_NEEDED] = ncon
-            return np.int64(STEP_MORE_PAIRS if code == COLLIDE_PAIRS_FULL
-                            else STEP_MORE_CONTACTS)
+            status = _branch(work, BRANCH_GENERAL_COLLIDE, (box, w, k, n, o))
+        if status != STEP_OK:
+            return status
+        ncon = work.carry[CARRY_NCON]
         sw.contact_count[0] = ncon
-    # sleep: contacts with an awake body first, the ncon of them the step treats
-    asleep = np.int64(0)
-    if o.sleep_time > 0.0:
-        ncon, asleep = _sleep(box, w, o, ncon)
     work.carry[CARRY_NCON] = ncon
-    work.carry[CARRY_ASLEEP] = asleep
+    work.carry[CARRY_ASLEEP] = 0
+    if o.sleep_time > 0.0:
+        return _branch(work, BRANCH_SLEEP, (box, w, k, n, o))
     return np.int64(STEP_OK)
 
 
@@ -181,11 +219,12 @@ def forces_stage(box, w, k, n, o):
     accumulate_forces(m, cw.applied_force, cw.applied_torque, work.force, work.torque)
     if work.carry[CARRY_EXPLICIT_DRIVES] != 0:
         _explicit_forces(box, w, o)
+    status = np.int64(STEP_OK)
     if o.contact == CONTACT_PENALTY and work.carry[CARRY_NCON] > 0:
-        _penalty_forces(box, w, o, work.carry[CARRY_NCON])
-    if work.carry[CARRY_STABLE_PD] != 0:
-        _stable_pd_forces(box, w, o)
-    return np.int64(STEP_OK)
+        status = _branch(work, BRANCH_PENALTY, (box, w, k, n, o))
+    if work.carry[CARRY_STABLE_PD] != 0 and status == STEP_OK:
+        status = _branch(work, BRANCH_STABLE_PD, (box, w, k, n, o))
+    return status
 
 
 @noalloc
@@ -245,7 +284,10 @@ def solve_stage(box, w, k, n, o):
     if fast == FAST_SOLVED:
         clear_backoff(sw.lcp_backoff)   # solved exactly: no back-off from Lemke
     else:
-        _solve_rows(box, w, o, nrow, ncon, fast)
+        work.carry[CARRY_FAST] = fast
+        status = _branch(work, BRANCH_EXACT_SOLVE, (box, w, k, n, o))
+        if status != STEP_OK:
+            return status
     njrow = sw.row_impulse.shape[0]
     nfix = njrow + 6 * work.servoed.shape[0]
     if njrow > 0:
@@ -303,42 +345,11 @@ def coordinates_stage(box, w, k, n, o):
 # the PD ragdoll's step.)
 
 @noalloc
-def _sleep(box, w, o, ncon):
-    """Collide, last part: islands of world ``w`` at rest put to sleep, their contacts
-    moved behind the ``ncon`` of awake ones. Returns (awake contacts, sleeping bodies)."""
-    m, sw, cw, conw, pairs, work = _world(box, w)
-    return sleep_islands(m, sw.body_vel, sw.body_angvel, sw.body_rest, cw, conw, ncon, o,
-                         work.island, work.island_rest, work.awake, work.prev)
-
-
-@noalloc
 def _explicit_forces(box, w, o):
     """Forces: explicit PD servos, joint torques and MJCF actuators of world ``w``."""
     m, sw, cw, conw, pairs, work = _world(box, w)
     actuator_forces(m, sw.body_pos, sw.body_quat, sw.body_vel, sw.body_angvel, _drive(cw),
                     cw.ctrl, o.pd_mode, work.force, work.torque)
-    return 0
-
-
-@noalloc
-def _penalty_forces(box, w, o, ncon):
-    """Forces: spring-damper contacts of world ``w`` (its first ``ncon``)."""
-    m, sw, cw, conw, pairs, work = _world(box, w)
-    penalty_forces(m, sw.body_pos, sw.body_quat, sw.body_vel, sw.body_angvel, conw, ncon,
-                   o.penalty_k, o.penalty_c, o.v_slip, o.dt,
-                   work.rows_per_contact == ROWS_SPIN, work.force, work.torque)
-    return 0
-
-
-@noalloc
-def _stable_pd_forces(box, w, o):
-    """Forces: stable PD's servo forces of world ``w`` (a solve of its joints ahead)."""
-    m, sw, cw, conw, pairs, work = _world(box, w)
-    world_inverse_inertia(m, sw.body_quat, work.inv_inertia)
-    stable_servo_forces(m, sw.body_pos, sw.body_quat, sw.body_vel, sw.body_angvel,
-                        _drive(cw), o.dt, o.erp, o.cfm, o.gyroscopic, o.tolerance, work.rows,
-                        work.imp, work.vel_pred, work.angvel_pred, work.inv_inertia,
-                        work.force, work.torque, work.caches[0])
     return 0
 
 
@@ -354,15 +365,70 @@ def _body_servo_rows(box, w, o, njrow, nfix):
     return 0
 
 
+# The branches (``BRANCHES``), in that order: the stages' paths some worlds never take,
+# each called through its address (``_branch``) so that it compiles on its own, and only
+# for a world that takes it. (Linked into their stages, the general collision, stable PD
+# and the exact solve were 40% of a cold start's compile, 2026-12-08, ragdoll600.)
+
 @noalloc
-def _solve_rows(box, w, o, nrow, ncon, fast):
-    """Solve: world ``w``'s rows by the method the options pick (``solve.solve_rows``),
-    when ``solve_fast`` did not (its status ``fast``); PGS standing in for Lemke counted."""
+def general_collide(box, w, k, n, o):
+    """Collide, a scene that is not all listed primitive pairs: the broad phase, convex
+    hulls and heightfields (``collide.collide_world``); what ``_collided`` says."""
     m, sw, cw, conw, pairs, work = _world(box, w)
-    sw.lcp_fallbacks[0] += solve_rows(m, work.rows, nrow, ncon, work.inv_inertia,
-                                      sw.body_vel, sw.body_angvel, work.imp, o, work.caches,
-                                      sw.lcp_backoff, fast)
-    return 0
+    code, ncon = collide_world(m, sw.body_pos, sw.body_quat, work.gpos, work.gquat,
+                               work.aabb_lo, work.aabb_hi, pairs, conw, sw.contact_count[0],
+                               work.prev, o.contact_margin, o.broadphase, work.listed,
+                               sw.body_rest, o.sleep_time)
+    return _collided(work, code, ncon)
+
+
+@noalloc
+def sleep(box, w, k, n, o):
+    """Collide, last part: islands of world ``w`` at rest put to sleep, their contacts
+    moved behind the awake ones; the awake contacts (those the step treats) into
+    CARRY_NCON, the sleeping bodies into CARRY_ASLEEP."""
+    m, sw, cw, conw, pairs, work = _world(box, w)
+    ncon, asleep = sleep_islands(m, sw.body_vel, sw.body_angvel, sw.body_rest, cw, conw,
+                                 work.carry[CARRY_NCON], o, work.island, work.island_rest,
+                                 work.awake, work.prev)
+    work.carry[CARRY_NCON] = ncon
+    work.carry[CARRY_ASLEEP] = asleep
+    return np.int64(STEP_OK)
+
+
+@noalloc
+def penalty_contact_forces(box, w, k, n, o):
+    """Forces: spring-damper contacts of world ``w`` (its first ``CARRY_NCON``)."""
+    m, sw, cw, conw, pairs, work = _world(box, w)
+    penalty_forces(m, sw.body_pos, sw.body_quat, sw.body_vel, sw.body_angvel, conw,
+                   work.carry[CARRY_NCON], o.penalty_k, o.penalty_c, o.v_slip, o.dt,
+                   work.rows_per_contact == ROWS_SPIN, work.force, work.torque)
+    return np.int64(STEP_OK)
+
+
+@noalloc
+def stable_pd_forces(box, w, k, n, o):
+    """Forces: stable PD's servo forces of world ``w`` (a solve of its joints ahead)."""
+    m, sw, cw, conw, pairs, work = _world(box, w)
+    world_inverse_inertia(m, sw.body_quat, work.inv_inertia)
+    stable_servo_forces(m, sw.body_pos, sw.body_quat, sw.body_vel, sw.body_angvel,
+                        _drive(cw), o.dt, o.erp, o.cfm, o.gyroscopic, o.tolerance, work.rows,
+                        work.imp, work.vel_pred, work.angvel_pred, work.inv_inertia,
+                        work.force, work.torque, work.caches[0])
+    return np.int64(STEP_OK)
+
+
+@noalloc
+def exact_solve(box, w, k, n, o):
+    """Solve: world ``w``'s rows by the method the options pick (``solve.solve_rows``),
+    when ``solve_fast`` did not (its status in CARRY_FAST); PGS standing in for Lemke
+    counted."""
+    m, sw, cw, conw, pairs, work = _world(box, w)
+    sw.lcp_fallbacks[0] += solve_rows(m, work.rows, work.carry[CARRY_NROW],
+                                      work.carry[CARRY_NCON], work.inv_inertia, sw.body_vel,
+                                      sw.body_angvel, work.imp, o, work.caches,
+                                      sw.lcp_backoff, work.carry[CARRY_FAST])
+    return np.int64(STEP_OK)
 
 
 #: The stage functions in the order of ``arrays.STAGES``.
@@ -370,12 +436,19 @@ STAGE_FUNCTIONS = (collide_stage, forces_stage, integrate_velocities_stage, rows
                    solve_stage, integrate_positions_stage, project_stage, check_stage,
                    coordinates_stage)
 
-# Roughly what each stage costs to compile cold, in seconds (``bench/profile_compile.py``
-# on the ragdoll, 2026-12-07): how ``_compile.compile_all`` shares them among processes.
-_COMPILE_COST = (90.0, 50.0, 3.0, 5.0, 80.0, 2.0, 8.0, 1.0, 2.0)
+#: The branch functions in the order of ``BRANCHES``.
+BRANCH_FUNCTIONS = (general_collide, sleep, penalty_contact_forces, stable_pd_forces,
+                    exact_solve)
 
-#: The addresses of the stages' compiled code (int), one field per ``arrays.STAGES``.
-StageAddresses = namedtuple("StageAddresses", STAGES)
+# Roughly what each stage and branch costs to compile cold, in seconds of a quick machine
+# (``bench/profile_compile.py`` on ragdoll600, 2026-12-08): how ``_compile.compile_all``
+# shares them among processes.
+_COMPILE_COST = (40.0, 4.0, 3.0, 5.0, 40.0, 2.0, 8.0, 1.0, 2.0)
+_BRANCH_COST = (40.0, 6.0, 3.0, 45.0, 65.0)
+
+#: The addresses of the stages' compiled code (int), one field per ``arrays.STAGES``, then
+#: of their branches' (``BRANCHES``; 0 for a branch not compiled for this call).
+StageAddresses = namedtuple("StageAddresses", STAGES + BRANCHES)
 
 
 def stage_signature(box, o):
@@ -383,24 +456,53 @@ def stage_signature(box, o):
     return (box._numba_type_, types.int64, types.int64, types.int64, typeof(o))
 
 
-def stage_addresses(box, o, compiled_only=False, meanwhile=()):
+def wanted_branches(m, o):
+    """The names of the branches (``BRANCHES``) a world of the model arrays ``m`` stepped
+    with options ``o`` will take, to compile with the stages: the exact solve (any world
+    with rows may need it), the general collision when not every pair that may touch is
+    of two primitives (or there are too many to list), sleeping, penalty contacts and
+    stable PD when the options ask for them. A branch missed here compiles on the first step that
+    takes it."""
+    wanted = ["exact_solve"]
+    if m.geom_type.shape[0] > 1:
+        if not listed_primitives(m, listed_pairs(m, m.body_kind.shape[0])):
+            wanted.append("general_collide")
+        if o.contact == CONTACT_PENALTY:
+            wanted.append("penalty_contact_forces")
+    if o.sleep_time > 0.0:
+        wanted.append("sleep")
+    if o.pd_mode == PD_STABLE:
+        wanted.append("stable_pd_forces")
+    return tuple(wanted)
+
+
+def stage_addresses(box, o, branches=(), compiled_only=False, meanwhile=()):
     """The stages' compiled code for the box ``box`` (``call.box_step_args``) and options
-    ``o``: a ``StageAddresses`` for ``step_worlds``. Stages this process has no code for
-    yet are loaded from Numba's cache or compiled now, in parallel processes
-    (``_compile.compile_all``), and ``meanwhile`` -- (dispatcher, argtypes) pairs, e.g.
-    the step around the stages -- is compiled here while they are; with
-    ``compiled_only``, None instead of compiling. Valid while the process lives."""
+    ``o``, with the branches named in ``branches`` (``BRANCHES``) and any other branch
+    this process has already compiled for them: a ``StageAddresses`` for ``step_worlds``.
+    What this process has no code for yet is loaded from Numba's cache or compiled now,
+    in parallel processes (``_compile.compile_all``), and ``meanwhile`` -- (dispatcher,
+    argtypes) pairs, e.g. the step around the stages -- is compiled here while they are;
+    with ``compiled_only``, None instead of compiling. Valid while the process lives."""
     sig = stage_signature(box, o)
-    if compiled_only and any(sig not in f.overloads for f in STAGE_FUNCTIONS):
+    wanted = [f for name, f in zip(BRANCHES, BRANCH_FUNCTIONS) if name in branches]
+    unknown = set(branches) - set(BRANCHES)
+    if unknown:
+        raise ValueError(f"no such branch of the step: {sorted(unknown)}; "
+                         f"the branches are {BRANCHES}")
+    functions = STAGE_FUNCTIONS + tuple(wanted)
+    if compiled_only and any(sig not in f.overloads for f in functions):
         return None
-    compile_all([(f, sig, cost) for f, cost in zip(STAGE_FUNCTIONS, _COMPILE_COST)],
+    costs = dict(zip(STAGE_FUNCTIONS + BRANCH_FUNCTIONS, _COMPILE_COST + _BRANCH_COST))
+    compile_all([(f, sig, costs[f]) for f in functions],
                 [(d, argtypes, 0.0) for d, argtypes in meanwhile])
-    addresses = StageAddresses(*(compiled_address(f, sig) for f in STAGE_FUNCTIONS))
-    for f in STAGE_FUNCTIONS:       # step_worlds calls them as returning _RESULT
+    for f in functions:             # step_worlds calls them as returning _RESULT
         if f.overloads[sig].signature.return_type != _RESULT:
             raise TypeError(f"{f.__name__} returns {f.overloads[sig].signature.return_type}, "
                             f"not {_RESULT}")
-    return addresses
+    return StageAddresses(*(compiled_address(f, sig) for f in STAGE_FUNCTIONS),
+                          *(compiled_address(f, sig) if sig in f.overloads else 0
+                            for f in BRANCH_FUNCTIONS))
 
 
 @njit(cache=True, inline="always")
@@ -432,6 +534,8 @@ def step_worlds(box, stages, n, o):
     work.carry[CARRY_EXPLICIT_DRIVES] = m.act_joint.shape[0] > 0 or _any_nonzero(
         c.joint_applied) or (o.pd_mode == PD_EXPLICIT and servoed_joints)
     work.carry[CARRY_STABLE_PD] = servoed_joints and o.pd_mode == PD_STABLE
+    for b in range(BRANCH_COUNT):
+        work.carry[CARRY_BRANCH + b] = stages[STAGE_COORDINATES + 1 + b]
     for w in range(s.body_pos.shape[0]):
         stage_ticks = s.stage_ticks[w]
         for k in range(n):
@@ -443,7 +547,9 @@ def step_worlds(box, stages, n, o):
             t = _lap(o, stage_ticks, STAGE_COLLIDE, t)
             # forces, velocities, rows, solve, positions, projection: in arrays.STAGES order
             for stage in range(STAGE_FORCES, STAGE_CHECK):
-                call_address(stages[stage], _RESULT, args)
+                status = call_address(stages[stage], _RESULT, args)
+                if status != STEP_OK:
+                    return status, w, k, np.int64(-1), work.carry[CARRY_NEEDED]
                 t = _lap(o, stage_ticks, stage, t)
             bad = call_address(stages[STAGE_CHECK], _RESULT, args)
             _lap(o, stage_ticks, STAGE_CHECK, t)

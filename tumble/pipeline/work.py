@@ -19,8 +19,12 @@ from .stabilize import projection_setup
 # Slots of ``StepWork.carry``: what one stage of the step hands the next within a world's
 # step (``step.py``), and what ``step_worlds`` works out once per call for the forces.
 (CARRY_NCON, CARRY_ASLEEP, CARRY_NROW, CARRY_NEEDED, CARRY_EXPLICIT_DRIVES,
- CARRY_STABLE_PD) = range(6)
-CARRY_SLOTS = 6
+ CARRY_STABLE_PD, CARRY_FAST) = range(7)
+# From here on, the address of each of the stages' branches' code (``step.BRANCHES``),
+# written by ``step_worlds`` at every call: addresses live only as long as the process.
+CARRY_BRANCH = 7
+BRANCH_COUNT = 5
+CARRY_SLOTS = CARRY_BRANCH + BRANCH_COUNT
 
 StepWork = namedtuple("StepWork", [
     "contact_capacity",   # int: contacts per world the contact arrays hold

@@ -26,7 +26,8 @@ from ..pipeline.joints.rows import joint_coordinates
 from ..pipeline.parallel import (box_parallel_args, make_spans, span_addresses, span_count,
                                  step_boxed_parallel)
 from ..pipeline.step_free import box_free_args, is_free, step_free_boxed
-from ..pipeline.step import STEP_DIVERGED, STEP_MORE_CONTACTS, STEP_MORE_PAIRS, stage_addresses
+from ..pipeline.step import (BRANCHES, STEP_DIVERGED, STEP_MORE_CODE, STEP_MORE_CONTACTS,
+                             STEP_MORE_PAIRS, stage_addresses, wanted_branches)
 from .control import ControlMixin
 from .options import OPTION_NAMES, Options, penalty_parameters, step_options
 from .queries import QueryMixin
@@ -144,6 +145,7 @@ class World(StateMixin, ControlMixin, QueryMixin):
         self._span_address = None  # call.step_span's compiled code, for the spans
         self._span_stages = None   # the step's stages' compiled code, for the spans
         self._stages = None        # step.stage_addresses for self._box
+        self._branches_taken = set()  # the step's branches a step asked for (STEP_MORE_CODE)
         self._parallel_entry = None  # step_boxed_parallel's compiled entry point
         self._entry = None         # step_span's compiled entry point, once called
         self._free_entry = None    # step_free_boxed's, once called (a free model)
@@ -167,7 +169,7 @@ class World(StateMixin, ControlMixin, QueryMixin):
         box = self._make_box(o, compiled_only=True)
         if box is None:
             return
-        stages = stage_addresses(box, o, compiled_only=True)
+        stages = stage_addresses(box, o, self._branches(o), compiled_only=True)
         if stages is None:
             return
         entry = ENTRY_POINTS.get(call.step_span, (box, stages, 1, o, True),
@@ -375,6 +377,9 @@ class World(StateMixin, ControlMixin, QueryMixin):
                 raise self._drive_error(code, w, i)
             if stage == call.CALL_NEW_WORK:
                 self._box = self._spans = None
+            elif code == STEP_MORE_CODE:
+                self._branches_taken.add(BRANCHES[needed])
+                self._stages = self._span_stages = None
             elif not self._grew_buffers(code, needed):
                 break
         if code == STEP_DIVERGED:
@@ -399,8 +404,9 @@ class World(StateMixin, ControlMixin, QueryMixin):
         small world's step. Returns step_span's (stage, code, world, index, step,
         needed)."""
         if self._box is None:
-            self._box = self._make_box(o)
-            self._stages = call.step_code(self._box, o)
+            self._box, self._stages = self._make_box(o), None
+        if self._stages is None:
+            self._stages = call.step_code(self._box, o, self._branches(o))
         return self._through_entry("_entry", call.step_span,
                                    (self._box, self._stages, n, o, True))
 
@@ -417,7 +423,10 @@ class World(StateMixin, ControlMixin, QueryMixin):
         if self._parallel_box is None:
             self._parallel_box = box_parallel_args(self._state, self._control, self._contacts,
                                                    self._spans)
-            self._span_address, self._span_stages = span_addresses(self._spans, o)
+            self._span_stages = None
+        if self._span_stages is None:
+            self._span_address, self._span_stages = span_addresses(self._spans, o,
+                                                                   self._branches(o))
         return self._through_entry("_parallel_entry", step_boxed_parallel,
                                    (self._parallel_box, n, o, self._span_address,
                                     self._span_stages))
@@ -450,6 +459,11 @@ class World(StateMixin, ControlMixin, QueryMixin):
                 self._ball_joints, o)
         make = ENTRY_POINTS.get(call.make_step_box, args, compiled_only=compiled_only)
         return None if make is None else make(*args)
+
+    def _branches(self, o):
+        """The step's branches to compile for options ``o``: those the model and options
+        call for (``step.wanted_branches``) and those a step of this world took."""
+        return wanted_branches(self.model.arrays, o) + tuple(self._branches_taken)
 
     def _grew_buffers(self, status, needed):
         """Grow the broad-phase or contact buffer when the step asked for it (the step was
