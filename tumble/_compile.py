@@ -42,12 +42,14 @@ def worker_count():
     return max(0, cores - 1)
 
 
-def compile_all(jobs, local=()):
+def compile_all(jobs, local=(), groups=()):
     """Compile every ``(dispatcher, argtypes, weight)`` of ``jobs`` and of ``local`` in
     this process, the ``jobs`` Numba's cache does not hold spread over worker processes
     (``worker_count``) and this one by ``weight`` (a rough cost, e.g. seconds), ``local``
-    always here. Returns when all are compiled in this process (loaded from the cache
-    the workers filled, or compiled here if a worker failed)."""
+    always here. ``groups``: sets of dispatchers that share much compiled code (a stage
+    and its branches), each kept in one process, which then compiles what they share
+    once. Returns when all are compiled in this process (loaded from the cache the
+    workers filled, or compiled here if a worker failed)."""
     missing = [(d, tuple(sig), w) for d, sig, w in jobs
                if not load_cached(d, sig)]
     nworker = min(worker_count(), len(missing))
@@ -55,13 +57,17 @@ def compile_all(jobs, local=()):
         for d, sig, _ in list(local) + missing:
             d.compile(tuple(sig))
         return
+    bundles = {}                     # the missing jobs by group (a job of none: its own)
+    for job in missing:
+        key = next((i for i, g in enumerate(groups) if job[0] in g), None)
+        bundles.setdefault(key if key is not None else ("alone", id(job)), []).append(job)
     # longest first, each to the least loaded process; process 0 is this one
     loads = [sum(w for _, _, w in local)] + [0.0] * nworker
     shares = [[] for _ in loads]
-    for job in sorted(missing, key=lambda j: -j[2]):
+    for bundle in sorted(bundles.values(), key=lambda b: -sum(j[2] for j in b)):
         i = loads.index(min(loads))
-        shares[i].append(job)
-        loads[i] += job[2]
+        shares[i].extend(bundle)
+        loads[i] += sum(j[2] for j in bundle)
     workers = []
     for share in filter(None, shares[1:]):
         try:

@@ -165,26 +165,29 @@ def bodies_on_a_heightfield():
 
 
 def test_a_world_compiles_the_branches_its_model_and_options_take():
-    """The stages' rarer paths compile only for worlds that take them: the exact solve
-    always; the general collision for a model that is not all listed primitive pairs;
-    penalty contacts and stable PD when the options ask."""
+    """The stages' rarer paths compile only for worlds that take them: the general
+    collision for a model that is not all listed primitive pairs; sleeping, penalty
+    contacts and stable PD when the options ask; the solves the options and model use."""
     from tumble.pipeline.step import wanted_branches
-    plain = pendulum_and_box()
-    assert wanted_branches(plain.model.arrays, plain.step_options()) == ("exact_solve",)
-    both = pendulum_and_box(contact="penalty", pd="stable")
-    assert set(wanted_branches(both.model.arrays, both.step_options())) == {
-        "exact_solve", "penalty_contact_forces", "stable_pd_forces"}
+
+    def wanted(world):
+        return set(wanted_branches(world.model.arrays, world.step_options()))
+    assert wanted(pendulum_and_box()) == {"direct_solve", "lcp_solve"}
+    assert wanted(pendulum_and_box(contact="penalty", pd="stable", sleep_time=0.5)) == {
+        "penalty_contact_forces", "stable_pd_forces", "sleep", "direct_solve"}
+    assert wanted(pendulum_and_box(contact="pgs")) == {"pgs_solve"}
+    assert wanted(pendulum_and_box(solver="pgs")) == {"pgs_solve", "direct_solve", "lcp_solve"}
     terrain = tumble.World(bodies_on_a_heightfield())
-    assert set(wanted_branches(terrain.model.arrays, terrain.step_options())) == {
-        "exact_solve", "general_collide"}
+    assert wanted(terrain) == {"general_collide", "lcp_solve"}
     terrain.step(30)                      # it lands on the terrain through the branch
     assert terrain.state_arrays.contact_count[0] > 0
     assert abs(terrain.body_pos[0, 2] - 0.1) < 0.01
 
 
 @pytest.mark.parametrize("branch, options", [
-    ("stable_pd_forces", dict(pd="stable")), ("exact_solve", dict(contact="lcp")),
-    ("penalty_contact_forces", dict(contact="penalty"))])
+    ("stable_pd_forces", dict(pd="stable")), ("lcp_solve", dict(contact="lcp")),
+    ("penalty_contact_forces", dict(contact="penalty")), ("direct_solve", dict(contact="penalty")),
+    ("pgs_solve", dict(contact="pgs")), ("sleep", dict(sleep_time=0.5))])
 def test_a_branch_missing_from_the_call_is_compiled_and_the_step_taken_again(branch, options):
     """A step that reaches a branch its call has no code for (options changed after the
     stages were compiled, say) is undone, the branch compiled, the step taken again: the

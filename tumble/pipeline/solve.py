@@ -39,35 +39,61 @@ from .solvers.tree import make_plan_cache, plan_capacity
 LEMKE_BACKOFF_MAX = 1024
 
 
-@allocating
-def solve_rows(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o, caches, backoff,
-               fast_status=FAST_NOT_HANDLED):
-    """Solve rows ``[0, nrow)`` (``ncon`` contacts among them) with the method the options
-    ``o`` pick, updating ``vel``, ``angvel`` (nbody, 3) and ``imp`` (nrow,) in place.
+# The methods a step's rows are solved by when ``solve_fast`` did not (``solve_method``).
+SOLVE_PGS, SOLVE_DIRECT, SOLVE_LCP = 0, 1, 2
 
-    caches : (direct, mlcp) tree-plan caches (``make_solver_caches``).
+
+@njit(cache=True, inline="always")
+def solve_method(o, ncon):
+    """The method for rows with ``ncon`` contacts under options ``o``: SOLVE_PGS for
+    ``contact='pgs'`` (or ``solver='pgs'`` without contacts: ``solvers.pgs.solve_pgs``),
+    SOLVE_DIRECT without contacts or with penalty springs (``solvers.direct.solve_direct``),
+    else SOLVE_LCP (``solve_lcp``). The step runs each as a branch of its own."""
+    if o.contact == CONTACT_PGS or (o.solver == SOLVER_PGS and ncon == 0):
+        return SOLVE_PGS
+    if ncon == 0 or o.contact == CONTACT_PENALTY:
+        return SOLVE_DIRECT
+    return SOLVE_LCP
+
+
+@allocating
+def solve_pgs_rows(m, rows, nrow, inv_inertia, vel, angvel, imp, o):
+    """SOLVE_PGS: ``solvers.pgs.solve_pgs`` with the options' sweeps and tolerances on rows
+    ``[0, nrow)``; ``vel``, ``angvel`` (nbody, 3) and ``imp`` (nrow,) updated in place.
+    (``allocating``, as the other methods: the step's ``noalloc`` code calls them.)"""
+    return solve_pgs(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp, o.iterations,
+                     o.tolerance, o.velocity_tolerance, o.warm_start)
+
+
+@allocating
+def solve_direct_rows(m, rows, nrow, inv_inertia, vel, angvel, imp, o, cache):
+    """SOLVE_DIRECT: ``solvers.direct.solve_direct`` on rows ``[0, nrow)`` (no exact
+    contacts among them), its tree plan kept in ``cache`` (``make_solver_caches``' first);
+    updated in place as ``solve_pgs_rows``."""
+    return solve_direct(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp,
+                        o.tolerance, cache)
+
+
+@allocating
+def solve_lcp(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o, cache, backoff,
+              fast_status):
+    """SOLVE_LCP: rows ``[0, nrow)`` with ``ncon`` exact contacts, the mixed LCP by Lemke
+    (unless the world backs off from it), PGS from the warm start if Lemke fails;
+    updated in place as ``solve_pgs_rows``.
+
+    cache : the mixed LCP's tree-plan cache (``make_solver_caches``' second).
     backoff : (3,) int64 of the world's state (``lcp_backoff``): steps left that skip
         Lemke, the current window, and the fewest contacts of a failure since the last
         exact solve (0: none; module docstring); updated.
     fast_status : what ``solve_fast`` returned for these rows: after FAST_GUESS_FAILED the
         mixed LCP does not try last step's contact state again.
-    Returns 1 when PGS stood in for the exact (Lemke) solve, else 0."""
-    if o.contact == CONTACT_PGS or (o.solver == SOLVER_PGS and ncon == 0):
-        solve_pgs(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp, o.iterations,
-                  o.tolerance, o.velocity_tolerance, o.warm_start)
-        return 0
-    if ncon == 0 or o.contact == CONTACT_PENALTY:
-        solve_direct(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp, o.tolerance,
-                     caches[0])
-        return 0
-    # exact: the mixed LCP by Lemke (unless backing off); if Lemke reports failure, PGS
-    # from the warm start
+    Returns 1 when PGS stood in for Lemke, else 0."""
     if backing_off(backoff, ncon):
         backoff[0] -= 1
     else:
         backoff[0] = 0          # a window ends early with fewer contacts than at a failure
         status = solve_mlcp(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp,
-                            np.int64(0), caches[1], fast_status != FAST_GUESS_FAILED)
+                            np.int64(0), cache, fast_status != FAST_GUESS_FAILED)
         if status == LEMKE_SOLVED:
             clear_backoff(backoff)
             return 0
@@ -83,25 +109,25 @@ def solve_rows(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o, caches, ba
 @noalloc
 def clear_backoff(backoff):
     """After an exact solve (Lemke's or ``solve_fast``'s): no steps to skip, no window, no
-    failure's contact count (``backoff``: see ``solve_rows``)."""
+    failure's contact count (``backoff``: see ``solve_lcp``)."""
     for k in range(backoff.shape[0]):
         backoff[k] = 0
 
 
 @njit(cache=True, inline="always")
 def backing_off(backoff, ncon):
-    """Whether a step with ``ncon`` contacts skips Lemke (``backoff``: see ``solve_rows``):
+    """Whether a step with ``ncon`` contacts skips Lemke (``backoff``: see ``solve_lcp``):
     steps are left in the window and there are no fewer contacts than at a failure."""
     return backoff[0] > 0 and ncon >= backoff[2]
 
 
 @noalloc
 def solve_fast(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o, caches, fast, backoff):
-    """``solve_rows``'s most common case, a character standing or walking on an exact (LCP)
+    """``solve_lcp``'s most common case, a character standing or walking on an exact (LCP)
     contact model, without allocating or reference counting (``mlcp.guess_on_tree_fast``).
     Not tried while the world backs off from Lemke (``backoff``, module docstring).
     Returns its status: FAST_SOLVED when it solved the rows; otherwise everything is left
-    to ``solve_rows`` (given the status)."""
+    to the method ``solve_method`` picks (given the status)."""
     if o.contact != CONTACT_LCP or ncon == 0 or backing_off(backoff, ncon):
         return FAST_NOT_HANDLED
     return guess_on_tree_fast(rows, nrow, m.body_inv_mass, inv_inertia, vel, angvel, imp,

@@ -42,13 +42,14 @@ count, ...) goes through ``work.carry``.
 
 Paths only some worlds take are the stages' *branches* (``BRANCHES``: the general
 collision of convex hulls, heightfields and the broad phase; sleeping; penalty contacts;
-stable PD; the exact solve behind ``solve_fast``), each a compiled function of the same
-signature that its stage calls through an address ``step_worlds`` hands it in
-``work.carry``. A world compiles the branches its model and options call for
+stable PD; the three solves behind ``solve_fast``: PGS, direct, mixed LCP), each a
+compiled function of the same signature that its stage calls through an address
+``step_worlds`` hands it in ``work.carry``. A world compiles the branches its model and options call for
 (``wanted_branches``) with the stages; one it takes unforeseen (its options changed, say)
 returns STEP_MORE_CODE, and ``World`` compiles it and steps again, the call undone as for
 a buffer too small. A character on a plane thus never compiles convex-hull collision or
-stable PD (together 30% of a cold start's compile on the ragdoll).
+stable PD, a chain of joints no contact solver, and the branches a world does take
+compile in parallel processes beside the stages on a cold start.
 
 With ``StepOptions.profile`` the step adds the time of each stage (``arrays.STAGES``) to
 ``StateArrays.stage_ticks``, in ``_jit.ticks`` units.
@@ -62,8 +63,8 @@ from .._compile import compile_all
 from .._jit import box_args, call_address, compiled_address, noalloc, ticks, world_of
 from .actuators import (PD_EXPLICIT, PD_IMPLICIT, PD_STABLE, actuator_forces, body_servo_rows,
                         stable_servo_forces)
-from .arrays import (CONTACT_PENALTY, STAGE_CHECK, STAGE_COLLIDE, STAGE_COORDINATES,
-                     STAGE_FORCES, STAGES)
+from .arrays import (CONTACT_LCP, CONTACT_PENALTY, CONTACT_PGS, SOLVER_PGS, STAGE_CHECK,
+                     STAGE_COLLIDE, STAGE_COORDINATES, STAGE_FORCES, STAGES)
 from .collide import (COLLIDE_OK, COLLIDE_PAIRS_FULL, collide_listed, collide_world,
                       listed_pairs, listed_primitives)
 from .contacts.arrays import copy_contact, pair_before
@@ -74,7 +75,8 @@ from .forces import accumulate_forces
 from .integrate import first_bad_body, integrate_positions, integrate_velocities
 from .joints.rows import build_joint_rows, joint_coordinates, joint_reactions
 from .joints.servo import JointDrive
-from .solve import clear_backoff, solve_fast, solve_rows
+from .solve import (SOLVE_DIRECT, SOLVE_LCP, SOLVE_PGS, clear_backoff, solve_direct_rows,
+                    solve_fast, solve_lcp, solve_method, solve_pgs_rows)
 from .solvers.common import world_inverse_inertia
 from .sleep import freeze, sleep_islands
 from .solvers.mlcp import FAST_SOLVED
@@ -89,9 +91,14 @@ STEP_OK, STEP_DIVERGED, STEP_MORE_PAIRS, STEP_MORE_CONTACTS, STEP_MORE_CODE = 0,
 #: stages' signature called through its address, compiled only for worlds that take it
 #: (``wanted_branches``), or on the first step that does (STEP_MORE_CODE).
 BRANCHES = ("general_collide", "sleep", "penalty_contact_forces", "stable_pd_forces",
-            "exact_solve")
-(BRANCH_GENERAL_COLLIDE, BRANCH_SLEEP, BRANCH_PENALTY, BRANCH_STABLE_PD,
- BRANCH_EXACT_SOLVE) = range(5)
+            "pgs_solve", "direct_solve", "lcp_solve")
+(BRANCH_GENERAL_COLLIDE, BRANCH_SLEEP, BRANCH_PENALTY, BRANCH_STABLE_PD, BRANCH_PGS_SOLVE,
+ BRANCH_DIRECT_SOLVE, BRANCH_LCP_SOLVE) = range(7)
+# solve.solve_method's methods, as the branches that run them
+_SOLVE_BRANCH = {SOLVE_PGS: BRANCH_PGS_SOLVE, SOLVE_DIRECT: BRANCH_DIRECT_SOLVE,
+                 SOLVE_LCP: BRANCH_LCP_SOLVE}
+assert _SOLVE_BRANCH[SOLVE_PGS] + 1 == _SOLVE_BRANCH[SOLVE_DIRECT] == \
+    _SOLVE_BRANCH[SOLVE_LCP] - 1
 assert len(BRANCHES) == BRANCH_COUNT
 
 # What every stage returns (declared to ``_jit.call_address``).
@@ -285,7 +292,8 @@ def solve_stage(box, w, k, n, o):
         clear_backoff(sw.lcp_backoff)   # solved exactly: no back-off from Lemke
     else:
         work.carry[CARRY_FAST] = fast
-        status = _branch(work, BRANCH_EXACT_SOLVE, (box, w, k, n, o))
+        status = _branch(work, BRANCH_PGS_SOLVE + solve_method(o, ncon) - SOLVE_PGS,
+                         (box, w, k, n, o))
         if status != STEP_OK:
             return status
     njrow = sw.row_impulse.shape[0]
@@ -418,16 +426,36 @@ def stable_pd_forces(box, w, k, n, o):
     return np.int64(STEP_OK)
 
 
+# The three solves of ``solve.solve_method``, for the rows ``solve_fast`` did not solve.
+
 @noalloc
-def exact_solve(box, w, k, n, o):
-    """Solve: world ``w``'s rows by the method the options pick (``solve.solve_rows``),
-    when ``solve_fast`` did not (its status in CARRY_FAST); PGS standing in for Lemke
-    counted."""
+def pgs_solve(box, w, k, n, o):
+    """Solve: world ``w``'s rows by projected Gauss-Seidel (``solve.solve_pgs_rows``)."""
     m, sw, cw, conw, pairs, work = _world(box, w)
-    sw.lcp_fallbacks[0] += solve_rows(m, work.rows, work.carry[CARRY_NROW],
-                                      work.carry[CARRY_NCON], work.inv_inertia, sw.body_vel,
-                                      sw.body_angvel, work.imp, o, work.caches,
-                                      sw.lcp_backoff, work.carry[CARRY_FAST])
+    solve_pgs_rows(m, work.rows, work.carry[CARRY_NROW], work.inv_inertia, sw.body_vel,
+                   sw.body_angvel, work.imp, o)
+    return np.int64(STEP_OK)
+
+
+@noalloc
+def direct_solve(box, w, k, n, o):
+    """Solve: world ``w``'s rows, none of them exact contacts, by the direct solver
+    (``solve.solve_direct_rows``)."""
+    m, sw, cw, conw, pairs, work = _world(box, w)
+    solve_direct_rows(m, work.rows, work.carry[CARRY_NROW], work.inv_inertia, sw.body_vel,
+                      sw.body_angvel, work.imp, o, work.caches[0])
+    return np.int64(STEP_OK)
+
+
+@noalloc
+def lcp_solve(box, w, k, n, o):
+    """Solve: world ``w``'s rows with exact contacts by the mixed LCP (``solve.solve_lcp``;
+    ``solve_fast``'s status in CARRY_FAST); PGS standing in for Lemke counted."""
+    m, sw, cw, conw, pairs, work = _world(box, w)
+    sw.lcp_fallbacks[0] += solve_lcp(m, work.rows, work.carry[CARRY_NROW],
+                                     work.carry[CARRY_NCON], work.inv_inertia, sw.body_vel,
+                                     sw.body_angvel, work.imp, o, work.caches[1],
+                                     sw.lcp_backoff, work.carry[CARRY_FAST])
     return np.int64(STEP_OK)
 
 
@@ -438,13 +466,17 @@ STAGE_FUNCTIONS = (collide_stage, forces_stage, integrate_velocities_stage, rows
 
 #: The branch functions in the order of ``BRANCHES``.
 BRANCH_FUNCTIONS = (general_collide, sleep, penalty_contact_forces, stable_pd_forces,
-                    exact_solve)
+                    pgs_solve, direct_solve, lcp_solve)
 
 # Roughly what each stage and branch costs to compile cold, in seconds of a quick machine
 # (``bench/profile_compile.py`` on ragdoll600, 2026-12-08): how ``_compile.compile_all``
 # shares them among processes.
 _COMPILE_COST = (40.0, 4.0, 3.0, 5.0, 40.0, 2.0, 8.0, 1.0, 2.0)
-_BRANCH_COST = (40.0, 6.0, 3.0, 45.0, 65.0)
+_BRANCH_COST = (40.0, 6.0, 3.0, 30.0, 3.0, 25.0, 40.0)
+# Stages and branches that share most of their callees, compiled in one process so that
+# their shared code is compiled once: the collision's, and the solvers'.
+_COMPILE_GROUPS = ({collide_stage, general_collide, sleep},
+                   {solve_stage, pgs_solve, direct_solve, lcp_solve, stable_pd_forces})
 
 #: The addresses of the stages' compiled code (int), one field per ``arrays.STAGES``, then
 #: of their branches' (``BRANCHES``; 0 for a branch not compiled for this call).
@@ -458,21 +490,30 @@ def stage_signature(box, o):
 
 def wanted_branches(m, o):
     """The names of the branches (``BRANCHES``) a world of the model arrays ``m`` stepped
-    with options ``o`` will take, to compile with the stages: the exact solve (any world
-    with rows may need it), the general collision when not every pair that may touch is
-    of two primitives (or there are too many to list), sleeping, penalty contacts and
-    stable PD when the options ask for them. A branch missed here compiles on the first step that
+    with options ``o`` will take, to compile with the stages: the general collision when
+    not every pair that may touch is of two primitives (or there are too many to list);
+    sleeping, penalty contacts and stable PD when the options ask for them; and the
+    solves ``solve.solve_method`` can pick: PGS when the options use it, the direct solve
+    for joints or penalty contacts, the mixed LCP for exact contacts. A branch missed
+    here (body servos on a model without joints, say) compiles on the first step that
     takes it."""
-    wanted = ["exact_solve"]
-    if m.geom_type.shape[0] > 1:
-        if not listed_primitives(m, listed_pairs(m, m.body_kind.shape[0])):
-            wanted.append("general_collide")
-        if o.contact == CONTACT_PENALTY:
-            wanted.append("penalty_contact_forces")
+    wanted = []
+    contacts = m.geom_type.shape[0] > 1
+    if contacts and not listed_primitives(m, listed_pairs(m, m.body_kind.shape[0])):
+        wanted.append("general_collide")
     if o.sleep_time > 0.0:
         wanted.append("sleep")
+    penalty = contacts and o.contact == CONTACT_PENALTY
+    if penalty:
+        wanted.append("penalty_contact_forces")
     if o.pd_mode == PD_STABLE:
         wanted.append("stable_pd_forces")
+    if o.contact == CONTACT_PGS or o.solver == SOLVER_PGS:
+        wanted.append("pgs_solve")
+    if o.contact != CONTACT_PGS and (m.joint_row_count.sum() > 0 or penalty):
+        wanted.append("direct_solve")
+    if contacts and o.contact == CONTACT_LCP:
+        wanted.append("lcp_solve")
     return tuple(wanted)
 
 
@@ -495,7 +536,7 @@ def stage_addresses(box, o, branches=(), compiled_only=False, meanwhile=()):
         return None
     costs = dict(zip(STAGE_FUNCTIONS + BRANCH_FUNCTIONS, _COMPILE_COST + _BRANCH_COST))
     compile_all([(f, sig, costs[f]) for f in functions],
-                [(d, argtypes, 0.0) for d, argtypes in meanwhile])
+                [(d, argtypes, 0.0) for d, argtypes in meanwhile], _COMPILE_GROUPS)
     for f in functions:             # step_worlds calls them as returning _RESULT
         if f.overloads[sig].signature.return_type != _RESULT:
             raise TypeError(f"{f.__name__} returns {f.overloads[sig].signature.return_type}, "

@@ -23,7 +23,7 @@ from .stabilize import projection_setup
 # From here on, the address of each of the stages' branches' code (``step.BRANCHES``),
 # written by ``step_worlds`` at every call: addresses live only as long as the process.
 CARRY_BRANCH = 7
-BRANCH_COUNT = 5
+BRANCH_COUNT = 7
 CARRY_SLOTS = CARRY_BRANCH + BRANCH_COUNT
 
 StepWork = namedtuple("StepWork", [
