@@ -474,9 +474,14 @@ BRANCH_FUNCTIONS = (general_collide, sleep, penalty_contact_forces, stable_pd_fo
 _COMPILE_COST = (40.0, 4.0, 3.0, 5.0, 40.0, 2.0, 8.0, 1.0, 2.0)
 _BRANCH_COST = (40.0, 6.0, 3.0, 30.0, 3.0, 25.0, 40.0)
 # Stages and branches that share most of their callees, compiled in one process so that
-# their shared code is compiled once: the collision's, and the solvers'.
+# their shared code is compiled once: the collision's; the contact solvers' (the fast
+# path and the mixed LCP: partition, tree factor, guesses); the direct solver's (also
+# stable PD's). The two solver groups share only the tree's plan and factor, and apart
+# they balance the two processes of a 2-core machine.
 _COMPILE_GROUPS = ({collide_stage, general_collide, sleep},
-                   {solve_stage, pgs_solve, direct_solve, lcp_solve, stable_pd_forces})
+                   {solve_stage, lcp_solve, pgs_solve}, {direct_solve, stable_pd_forces})
+# What the process that hands out the stages compiles meanwhile (``call.step_span``).
+_MEANWHILE_COST = 15.0
 
 #: The addresses of the stages' compiled code (int), one field per ``arrays.STAGES``, then
 #: of their branches' (``BRANCHES``; 0 for a branch not compiled for this call).
@@ -536,7 +541,8 @@ def stage_addresses(box, o, branches=(), compiled_only=False, meanwhile=()):
         return None
     costs = dict(zip(STAGE_FUNCTIONS + BRANCH_FUNCTIONS, _COMPILE_COST + _BRANCH_COST))
     compile_all([(f, sig, costs[f]) for f in functions],
-                [(d, argtypes, 0.0) for d, argtypes in meanwhile], _COMPILE_GROUPS)
+                [(d, argtypes, _MEANWHILE_COST) for d, argtypes in meanwhile],
+                _COMPILE_GROUPS)
     for f in functions:             # step_worlds calls them as returning _RESULT
         if f.overloads[sig].signature.return_type != _RESULT:
             raise TypeError(f"{f.__name__} returns {f.overloads[sig].signature.return_type}, "

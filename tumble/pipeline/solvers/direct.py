@@ -213,7 +213,8 @@ def row_dot(rows, r, acc):
     return s
 
 
-@njit(cache=True)
+# inlined: compiled on its own, a pass-through re-emits all it calls (a cold start's cost)
+@njit(cache=True, inline="always")
 def solve_direct(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, tolerance, cache):
     """Solve the rows exactly; returns the number of active-set iterations, negative if it
     fell back to projected Gauss-Seidel.

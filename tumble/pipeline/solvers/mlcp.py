@@ -59,7 +59,8 @@ REGULARISED_ROWS = 48
 REGULARISED_CFM = 1e-5
 
 
-@njit(cache=True)
+# inlined: compiled on its own, a pass-through re-emits all it calls (a cold start's cost)
+@njit(cache=True, inline="always")
 def solve_mlcp(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, max_pivots, cache,
                guess=True):
     """Solve the rows exactly; apply the impulses. Returns Lemke's status (0: solved).
