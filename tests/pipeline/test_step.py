@@ -204,3 +204,11 @@ def test_a_branch_missing_from_the_call_is_compiled_and_the_step_taken_again(bra
     for a, b in zip(w.state_arrays, twin.state_arrays):
         np.testing.assert_array_equal(a, b)
     assert w.time == twin.time
+
+
+def test_an_unknown_branch_is_refused_by_name():
+    from tumble.pipeline import step
+    world = pendulum_and_box()
+    world.step(1)
+    with pytest.raises(ValueError, match="no such branch of the step: \\['stable_pd'\\]"):
+        step.stage_addresses(world._box, world.step_options(), ("stable_pd",))
