@@ -168,10 +168,11 @@ def test_a_world_compiles_the_branches_its_model_and_options_take():
     """The stages' rarer paths compile only for worlds that take them: the general
     collision for a model that is not all listed primitive pairs; sleeping, penalty
     contacts and stable PD when the options ask; the solves the options and model use."""
-    from tumble.pipeline.step import wanted_branches
+    from tumble.pipeline.step import takes_general_collision, wanted_branches
 
     def wanted(world):
-        return set(wanted_branches(world.model.arrays, world.step_options()))
+        m = world.model.arrays
+        return set(wanted_branches(m, world.step_options(), takes_general_collision(m)))
     assert wanted(pendulum_and_box()) == {"direct_solve", "lcp_solve"}
     assert wanted(pendulum_and_box(contact="penalty", pd="stable", sleep_time=0.5)) == {
         "penalty_contact_forces", "stable_pd_forces", "sleep", "direct_solve"}

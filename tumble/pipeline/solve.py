@@ -19,9 +19,9 @@ character that gets up from the heap is exact again in the step its contacts dro
 (``solve_fast`` guesses from last step's impulses, which PGS's do not give it). While a
 world backs off, ``solve_fast`` is not tried either: on the heaps measured (six falls of
 the passive ragdoll, the fallen course character) it never solved a step that PGS stood
-in for, and its failed guess cost a fifth of the resting heap's step. A refusal by size (``LEMKE_TOO_LARGE``: more rows than ``EXACT_MAX_ROWS``)
-starts no back-off, since it costs nothing: a scene that comes under the limit is solved
-exactly at once.
+in for, and its failed guess cost a fifth of the resting heap's step. A refusal by size
+(``LEMKE_TOO_LARGE``: more rows than ``EXACT_MAX_ROWS``) starts no back-off, since it
+costs nothing: a scene that comes under the limit is solved exactly at once.
 """
 import numpy as np
 from numba import njit

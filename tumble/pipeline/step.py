@@ -40,16 +40,16 @@ parallel processes on a cold start: ``tumble._compile``), and the step above the
 seconds. What a stage hands the next within a world's step (the contact count, the row
 count, ...) goes through ``work.carry``.
 
-Paths only some worlds take are the stages' *branches* (``BRANCHES``: the general
-collision of convex hulls, heightfields and the broad phase; sleeping; penalty contacts;
-stable PD; the three solves behind ``solve_fast``: PGS, direct, mixed LCP), each a
-compiled function of the same signature that its stage calls through an address
-``step_worlds`` hands it in ``work.carry``. A world compiles the branches its model and options call for
+Paths only some worlds take are the stages' *branches* (``BRANCHES``: the general collision
+of convex hulls, heightfields and the broad phase; sleeping; penalty contacts; stable PD;
+the three solves behind ``solve_fast``: PGS, direct, mixed LCP), each a compiled function
+of the same signature that its stage calls through an address ``step_worlds`` hands it in
+``work.carry``. A world compiles the branches its model and options call for
 (``wanted_branches``) with the stages; one it takes unforeseen (its options changed, say)
-returns STEP_MORE_CODE, and ``World`` compiles it and steps again, the call undone as for
-a buffer too small. A character on a plane thus never compiles convex-hull collision or
-stable PD, a chain of joints no contact solver, and the branches a world does take
-compile in parallel processes beside the stages on a cold start.
+returns STEP_MORE_CODE, and ``World`` compiles it and steps again, the call undone as for a
+buffer too small. A character on a plane thus never compiles convex-hull collision or
+stable PD, a chain of joints no contact solver, and the branches a world does take compile
+in parallel processes beside the stages on a cold start.
 
 With ``StepOptions.profile`` the step adds the time of each stage (``arrays.STAGES``) to
 ``StateArrays.stage_ticks``, in ``_jit.ticks`` units.
@@ -94,11 +94,9 @@ BRANCHES = ("general_collide", "sleep", "penalty_contact_forces", "stable_pd_for
             "pgs_solve", "direct_solve", "lcp_solve")
 (BRANCH_GENERAL_COLLIDE, BRANCH_SLEEP, BRANCH_PENALTY, BRANCH_STABLE_PD, BRANCH_PGS_SOLVE,
  BRANCH_DIRECT_SOLVE, BRANCH_LCP_SOLVE) = range(7)
-# solve.solve_method's methods, as the branches that run them
-_SOLVE_BRANCH = {SOLVE_PGS: BRANCH_PGS_SOLVE, SOLVE_DIRECT: BRANCH_DIRECT_SOLVE,
-                 SOLVE_LCP: BRANCH_LCP_SOLVE}
-assert _SOLVE_BRANCH[SOLVE_PGS] + 1 == _SOLVE_BRANCH[SOLVE_DIRECT] == \
-    _SOLVE_BRANCH[SOLVE_LCP] - 1
+# solve.solve_method's methods run as the branches in the same order (solve_stage adds)
+assert (BRANCH_DIRECT_SOLVE - BRANCH_PGS_SOLVE, BRANCH_LCP_SOLVE - BRANCH_PGS_SOLVE) == \
+    (SOLVE_DIRECT - SOLVE_PGS, SOLVE_LCP - SOLVE_PGS)
 assert len(BRANCHES) == BRANCH_COUNT
 
 # What every stage returns (declared to ``_jit.call_address``).
@@ -375,8 +373,8 @@ def _body_servo_rows(box, w, o, njrow, nfix):
 
 # The branches (``BRANCHES``), in that order: the stages' paths some worlds never take,
 # each called through its address (``_branch``) so that it compiles on its own, and only
-# for a world that takes it. (Linked into their stages, the general collision, stable PD
-# and the exact solve were 40% of a cold start's compile, 2026-12-08, ragdoll600.)
+# for a world that takes it. (Linked into their stages, the general collision and stable
+# PD were 30% of ragdoll600's cold compile, 2026-12-07, which never runs either.)
 
 @noalloc
 def general_collide(box, w, k, n, o):
@@ -469,7 +467,7 @@ BRANCH_FUNCTIONS = (general_collide, sleep, penalty_contact_forces, stable_pd_fo
                     pgs_solve, direct_solve, lcp_solve)
 
 # Roughly what each stage and branch costs to compile cold, in seconds of a quick machine
-# (``bench/profile_compile.py`` on ragdoll600, 2026-12-08): how ``_compile.compile_all``
+# (``bench/profile_compile.py`` on ragdoll600, 2026-12-07): how ``_compile.compile_all``
 # shares them among processes.
 _COMPILE_COST = (40.0, 4.0, 3.0, 5.0, 40.0, 2.0, 8.0, 1.0, 2.0)
 _BRANCH_COST = (40.0, 6.0, 3.0, 30.0, 3.0, 25.0, 40.0)
@@ -493,18 +491,26 @@ def stage_signature(box, o):
     return (box._numba_type_, types.int64, types.int64, types.int64, typeof(o))
 
 
-def wanted_branches(m, o):
+def takes_general_collision(m):
+    """Whether a world of the model arrays ``m`` collides by ``collide.collide_world``
+    (the general collision branch): not every pair that may touch is of two primitives,
+    or there are too many to list (as ``work.make_step_work`` decides)."""
+    return m.geom_type.shape[0] > 1 and not listed_primitives(
+        m, listed_pairs(m, m.body_kind.shape[0]))
+
+
+def wanted_branches(m, o, general_collision):
     """The names of the branches (``BRANCHES``) a world of the model arrays ``m`` stepped
     with options ``o`` will take, to compile with the stages: the general collision when
-    not every pair that may touch is of two primitives (or there are too many to list);
-    sleeping, penalty contacts and stable PD when the options ask for them; and the
+    ``general_collision`` (``takes_general_collision(m)``, which a caller keeps: the model
+    cannot change); sleeping, penalty contacts and stable PD when the options ask for them; and the
     solves ``solve.solve_method`` can pick: PGS when the options use it, the direct solve
     for joints or penalty contacts, the mixed LCP for exact contacts. A branch missed
     here (body servos on a model without joints, say) compiles on the first step that
     takes it."""
     wanted = []
     contacts = m.geom_type.shape[0] > 1
-    if contacts and not listed_primitives(m, listed_pairs(m, m.body_kind.shape[0])):
+    if general_collision:
         wanted.append("general_collide")
     if o.sleep_time > 0.0:
         wanted.append("sleep")
@@ -530,12 +536,12 @@ def stage_addresses(box, o, branches=(), compiled_only=False, meanwhile=()):
     in parallel processes (``_compile.compile_all``), and ``meanwhile`` -- (dispatcher,
     argtypes) pairs, e.g. the step around the stages -- is compiled here while they are;
     with ``compiled_only``, None instead of compiling. Valid while the process lives."""
-    sig = stage_signature(box, o)
-    wanted = [f for name, f in zip(BRANCHES, BRANCH_FUNCTIONS) if name in branches]
     unknown = set(branches) - set(BRANCHES)
     if unknown:
         raise ValueError(f"no such branch of the step: {sorted(unknown)}; "
                          f"the branches are {BRANCHES}")
+    sig = stage_signature(box, o)
+    wanted = [f for name, f in zip(BRANCHES, BRANCH_FUNCTIONS) if name in branches]
     functions = STAGE_FUNCTIONS + tuple(wanted)
     if compiled_only and any(sig not in f.overloads for f in functions):
         return None

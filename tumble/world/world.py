@@ -27,7 +27,8 @@ from ..pipeline.parallel import (box_parallel_args, make_spans, span_addresses, 
                                  step_boxed_parallel)
 from ..pipeline.step_free import box_free_args, is_free, step_free_boxed
 from ..pipeline.step import (BRANCHES, STEP_DIVERGED, STEP_MORE_CODE, STEP_MORE_CONTACTS,
-                             STEP_MORE_PAIRS, stage_addresses, wanted_branches)
+                             STEP_MORE_PAIRS, stage_addresses, takes_general_collision,
+                             wanted_branches)
 from .control import ControlMixin
 from .options import OPTION_NAMES, Options, penalty_parameters, step_options
 from .queries import QueryMixin
@@ -146,6 +147,7 @@ class World(StateMixin, ControlMixin, QueryMixin):
         self._span_stages = None   # the step's stages' compiled code, for the spans
         self._stages = None        # step.stage_addresses for self._box
         self._branches_taken = set()  # the step's branches a step asked for (STEP_MORE_CODE)
+        self._general_collision = None  # step.takes_general_collision(model), once asked
         self._parallel_entry = None  # step_boxed_parallel's compiled entry point
         self._entry = None         # step_span's compiled entry point, once called
         self._free_entry = None    # step_free_boxed's, once called (a free model)
@@ -463,7 +465,10 @@ class World(StateMixin, ControlMixin, QueryMixin):
     def _branches(self, o):
         """The step's branches to compile for options ``o``: those the model and options
         call for (``step.wanted_branches``) and those a step of this world took."""
-        return wanted_branches(self.model.arrays, o) + tuple(self._branches_taken)
+        if self._general_collision is None:
+            self._general_collision = takes_general_collision(self.model.arrays)
+        return wanted_branches(self.model.arrays, o, self._general_collision) + \
+            tuple(self._branches_taken)
 
     def _grew_buffers(self, status, needed):
         """Grow the broad-phase or contact buffer when the step asked for it (the step was
