@@ -165,7 +165,8 @@ def _listed_overlaps(listed, aabb_lo, aabb_hi, pairs):
 _NARROW_DONE, _NARROW_FULL, _NARROW_GENERAL = 0, 1, 2
 
 
-@noalloc
+# inlined: compiled on its own, it would emit again all it calls (a cold start's cost)
+@noalloc(inline="always")
 def _narrow_phase(m, pairs, i, npair, filtered, gpos, gquat, aabb_lo, aabb_hi, con, count,
                   prev_count, prev, p, world_margin, rest, sleep_time):
     """Contacts of the candidate pairs ``pairs[i:npair]`` into ``con`` from ``count`` on,
@@ -341,7 +342,8 @@ def collide_world(m, pos, quat, gpos, gquat, aabb_lo, aabb_hi, pairs, con, prev_
         i += 1
 
 
-@noalloc
+# inlined: compiled on its own, it would emit again all it calls (a cold start's cost)
+@noalloc(inline="always")
 def collide_listed(m, pos, quat, gpos, gquat, aabb_lo, aabb_hi, pairs, con, prev_count, prev,
                    world_margin, listed, rest, sleep_time):
     """``collide_world`` for a scene whose ``listed`` pairs are all of primitives

@@ -65,7 +65,8 @@ def projection_setup(m, rows, nbody, enabled):
             np.zeros((nbody, 6)), np.zeros((nbody, 3)))
 
 
-@noalloc
+# inlined: compiled on its own, it would emit again all it calls (a cold start's cost)
+@noalloc(inline="always")
 def project_joints(m, pos, quat, rows, inv_inertia, iterations, tolerance, setup):
     """Move bodies so every rigid joint's core rows hold at the position level, once some
     row's error exceeds ``tolerance`` (m or rad); below it ERP alone corrects the drift.
@@ -93,7 +94,8 @@ def _largest_core_error(m, pos, quat, rows):
     return biggest
 
 
-@noalloc
+# inlined: compiled on its own, it would emit again all it calls (a cold start's cost)
+@noalloc(inline="always")
 def _project(m, pos, quat, rows, inv_inertia, iterations, tolerance, idx, n, tree,
              plan, dv, b, A, work, reg, y, u, fzero, zero):
     """The Gauss-Newton iterations of ``project_joints`` on its work arrays."""

@@ -87,7 +87,8 @@ def mixed_lcp(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, max_pivot
                             max_pivots, allow_tree, cache, np.bool_(True))
 
 
-@njit(cache=True)
+# inlined: compiled on its own, it would emit again all it calls (a cold start's cost)
+@njit(cache=True, inline="always")
 def mixed_lcp_cached(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, max_pivots,
                      allow_tree, cache, guess):
     """``mixed_lcp`` with the tree plan kept in ``cache`` (``guess``: see solve_mlcp)."""
@@ -137,7 +138,8 @@ def make_fast_scratch(nrow, nbody, cache):
 FAST_SOLVED, FAST_NOT_HANDLED, FAST_GUESS_FAILED = 0, 1, 2
 
 
-@noalloc
+# inlined: compiled on its own, it would emit again all it calls (a cold start's cost)
+@noalloc(inline="always")
 def guess_on_tree_fast(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, cache, fs):
     """``solve_mlcp``'s common case without allocating (so without reference counting):
     the bilateral rows have a tree plan in ``cache`` already, it factorises, and last
@@ -183,7 +185,8 @@ def _right_hand_side(rows, part, bodies, tw):
         g[u] = b[part.bil[u]]
 
 
-@noalloc
+# inlined: compiled on its own, it would emit again all it calls (a cold start's cost)
+@noalloc(inline="always")
 def _guess_and_finish(rows, part, plan, bodies, impulse, tw, gs):
     """The tree path's first try, shared by ``_mlcp_tree`` and ``guess_on_tree_fast``
     (after ``_right_hand_side``), and when it solves the LCP, applied (``_finish``):

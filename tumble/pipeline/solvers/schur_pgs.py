@@ -322,7 +322,8 @@ def schur_pgs_exact(rows, part, S, cvec, impulse, p, state, partner, normal, eve
     return False
 
 
-@noalloc
+# inlined: compiled on its own, it would emit again all it calls (a cold start's cost)
+@noalloc(inline="always")
 def sweep_on_tree(rows, part, plan, bodies, tw, gs, impulse):
     """``schur_pgs_exact`` on the complement of every LCP row from their tree columns
     (``guess.columns_complement``), the new velocities applied to ``tw.vn``, ``tw.y``
