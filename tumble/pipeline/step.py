@@ -467,10 +467,11 @@ BRANCH_FUNCTIONS = (general_collide, sleep, penalty_contact_forces, stable_pd_fo
                     pgs_solve, direct_solve, lcp_solve)
 
 # Roughly what each stage and branch costs to compile cold, in seconds of a quick machine
-# (``bench/profile_compile.py`` on ragdoll600, 2026-12-07): how ``_compile.compile_all``
-# shares them among processes.
-_COMPILE_COST = (40.0, 4.0, 3.0, 5.0, 40.0, 2.0, 8.0, 1.0, 2.0)
-_BRANCH_COST = (40.0, 6.0, 3.0, 30.0, 3.0, 25.0, 40.0)
+# (``bench/profile_compile.py`` on ragdoll600, 2026-12-07; the stages, the direct and
+# mixed-LCP solves and step_span re-measured in its ninth session): how
+# ``_compile.compile_all`` shares them among processes.
+_COMPILE_COST = (29.0, 5.0, 3.0, 16.0, 30.0, 2.0, 8.0, 1.0, 1.0)
+_BRANCH_COST = (40.0, 6.0, 3.0, 30.0, 3.0, 15.0, 41.0)
 # Stages and branches that share most of their callees, compiled in one process so that
 # their shared code is compiled once: the collision's; the contact solvers' (the fast
 # path and the mixed LCP: partition, tree factor, guesses); the direct solver's (also
@@ -479,7 +480,7 @@ _BRANCH_COST = (40.0, 6.0, 3.0, 30.0, 3.0, 25.0, 40.0)
 _COMPILE_GROUPS = ({collide_stage, general_collide, sleep},
                    {solve_stage, lcp_solve, pgs_solve}, {direct_solve, stable_pd_forces})
 # What the process that hands out the stages compiles meanwhile (``call.step_span``).
-_MEANWHILE_COST = 15.0
+_MEANWHILE_COST = 11.0
 
 #: The addresses of the stages' compiled code (int), one field per ``arrays.STAGES``, then
 #: of their branches' (``BRANCHES``; 0 for a branch not compiled for this call).
