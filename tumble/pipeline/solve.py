@@ -121,7 +121,7 @@ def backing_off(backoff, ncon):
     return backoff[0] > 0 and ncon >= backoff[2]
 
 
-# inlined: compiled on its own, it re-emits all it calls (a cold start's cost)
+# inlined: compiled on its own, it would emit again all it calls (a cold start's cost)
 @noalloc(inline="always")
 def solve_fast(m, rows, nrow, ncon, inv_inertia, vel, angvel, imp, o, caches, fast, backoff):
     """``solve_lcp``'s most common case, a character standing or walking on an exact (LCP)

@@ -466,10 +466,10 @@ STAGE_FUNCTIONS = (collide_stage, forces_stage, integrate_velocities_stage, rows
 BRANCH_FUNCTIONS = (general_collide, sleep, penalty_contact_forces, stable_pd_forces,
                     pgs_solve, direct_solve, lcp_solve)
 
-# Roughly what each stage and branch costs to compile cold, in seconds of a quick machine
-# (``bench/profile_compile.py`` on ragdoll600, 2026-12-07; the stages, the direct and
-# mixed-LCP solves and step_span re-measured in its ninth session): how
-# ``_compile.compile_all`` shares them among processes.
+# Roughly what each stage and branch costs to compile cold, in seconds of one process
+# (``bench/profile_compile.py`` on ragdoll600, 2026-12-07 on a quick machine; the stages,
+# the direct and mixed-LCP solves and step_span re-measured in its ninth session on one
+# about as fast): how ``_compile.compile_all`` shares them among processes.
 _COMPILE_COST = (29.0, 5.0, 3.0, 16.0, 30.0, 2.0, 8.0, 1.0, 1.0)
 _BRANCH_COST = (40.0, 6.0, 3.0, 30.0, 3.0, 15.0, 41.0)
 # Stages and branches that share most of their callees, compiled in one process so that
@@ -504,11 +504,11 @@ def wanted_branches(m, o, general_collision):
     """The names of the branches (``BRANCHES``) a world of the model arrays ``m`` stepped
     with options ``o`` will take, to compile with the stages: the general collision when
     ``general_collision`` (``takes_general_collision(m)``, which a caller keeps: the model
-    cannot change); sleeping, penalty contacts and stable PD when the options ask for them; and the
-    solves ``solve.solve_method`` can pick: PGS when the options use it, the direct solve
-    for joints or penalty contacts, the mixed LCP for exact contacts. A branch missed
-    here (body servos on a model without joints, say) compiles on the first step that
-    takes it."""
+    cannot change); sleeping, penalty contacts and stable PD when the options ask for
+    them; and the solves ``solve.solve_method`` can pick: PGS when the options use it, the
+    direct solve for joints or penalty contacts, the mixed LCP for exact contacts. A
+    branch missed here (body servos on a model without joints, say) compiles on the first
+    step that takes it."""
     wanted = []
     contacts = m.geom_type.shape[0] > 1
     if general_collision:

@@ -213,7 +213,7 @@ def row_dot(rows, r, acc):
     return s
 
 
-# inlined: compiled on its own, a pass-through re-emits all it calls (a cold start's cost)
+# inlined: compiled on its own, it would emit again all it calls (a cold start's cost)
 @njit(cache=True, inline="always")
 def solve_direct(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, tolerance, cache):
     """Solve the rows exactly; returns the number of active-set iterations, negative if it

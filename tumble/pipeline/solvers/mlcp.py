@@ -59,7 +59,7 @@ REGULARISED_ROWS = 48
 REGULARISED_CFM = 1e-5
 
 
-# inlined: compiled on its own, a pass-through re-emits all it calls (a cold start's cost)
+# inlined: compiled on its own, it would emit again all it calls (a cold start's cost)
 @njit(cache=True, inline="always")
 def solve_mlcp(rows, nrow, inv_mass, inv_inertia, vel, angvel, impulse, max_pivots, cache,
                guess=True):
