@@ -3,7 +3,8 @@
     python bench/bench_tumble.py SCENE [--variant default|pgs|penalty|sleep|...] [--budget S]
 
 Variants pick World options: 'default' (direct joint solver, exact 'lcp' contacts), 'pgs'
-(projected Gauss-Seidel for joints and contacts), 'penalty' (spring-damper contacts);
+(projected Gauss-Seidel for joints and contacts), 'penalty' (spring-damper contacts;
+'penalty-explicit' with the lecture's explicit springs on every body);
 'sleep' and 'pgs-sleep' are 'default' and 'pgs' with islands at rest put to sleep after
 0.5 s (``World(sleep_time=0.5)``; the peers' runs do not sleep); 'pgs50' is 'pgs' with 50
 sweeps instead of 300.
@@ -33,7 +34,9 @@ from bench import scenes as S  # noqa: E402
 from bench import tumble_scenes as T  # noqa: E402
 
 VARIANTS = {"default": {}, "pgs": dict(solver="pgs", contact="pgs"),
-            "penalty": dict(contact="penalty"), "implicit-pd": dict(pd="implicit"),
+            "penalty": dict(contact="penalty"),
+            "penalty-explicit": dict(contact="penalty", penalty_integration="explicit"),
+            "implicit-pd": dict(pd="implicit"),
             "stable-pd": dict(pd="stable"), "explicit-pd": dict(pd="explicit"),
             # islands at rest for 0.5 s sleep (Box2D's default time; off by default)
             "sleep": dict(sleep_time=0.5),

@@ -17,7 +17,7 @@
 #
 # | `contact=` | what | |
 # |---|---|---|
-# | `"penalty"` | a spring-damper pushes overlapping geoms apart; friction is a stiff damper on the slip (regularised Coulomb) | cheap and simple; lets geoms sink in and springs back and forth |
+# | `"penalty"` | a spring-damper pushes overlapping geoms apart; friction is a stick spring capped at μ f_n | cheap and simple; lets geoms sink in and springs back and forth |
 # | `"lcp"` | contact impulses from a linear complementarity problem (non-penetration, Coulomb friction on a 4-sided pyramid), solved exactly by Lemke's algorithm together with the joints | exact; dense, for scenes of a few bodies |
 # | `"pgs"` | the same problem solved by projected Gauss–Seidel sweeps, warm-started | scales to hundreds of contacts; converges to the exact answer as it iterates |
 #
@@ -96,7 +96,9 @@ plt.show()
 # What the figures say:
 #
 # - **penalty** contacts must overlap to push: the stack settles millimetres into itself
-#   and keeps some kinetic energy (the springs ring);
+#   and keeps some kinetic energy while the springs ring down (here integrated implicitly,
+#   the default `penalty_integration`; `"explicit"` is the lecture's form, stable only for
+#   small `sqrt(k/m) dt`);
 # - **LCP** (Lemke) holds the stack to round-off: no overlap, no motion;
 # - **PGS** stops a few micrometres short of the exact answer after its sweeps;
 # - all three give Coulomb's sliding distance to within a step's worth of travel

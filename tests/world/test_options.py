@@ -34,6 +34,7 @@ def test_keywords_become_options_and_attributes():
     ("pd", "fast", "pd must be one of"),
     ("broadphase", "bvh", "broadphase must be one of"),
     ("penalty_stiffness", -3.0, "penalty_stiffness must be finite and > 0"),
+    ("penalty_integration", "semi", "penalty_integration must be one of"),
     ("profile", "yes", "profile must be True or False"),
     ("velocity_tolerance", -1e-5, "velocity_tolerance must be"),
 ])

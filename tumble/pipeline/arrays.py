@@ -30,7 +30,8 @@ StepOptions = namedtuple("StepOptions", [
     "erp", "cfm", "solver", "iterations", "tolerance", "velocity_tolerance",
     "warm_start", "projection",
     "projection_tolerance", "contact", "contact_erp", "contact_cfm", "slop",
-    "bounce_threshold", "penalty_k", "penalty_c", "v_slip", "contact_margin", "pd_mode",
+    "bounce_threshold", "penalty_k", "penalty_c", "v_slip", "penalty_implicit",
+    "contact_margin", "pd_mode",
     "broadphase", "profile", "sleep_time", "sleep_speed", "sleep_spin"])
 
 StateArrays = namedtuple("StateArrays", [

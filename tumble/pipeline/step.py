@@ -408,7 +408,8 @@ def penalty_contact_forces(box, w, k, n, o):
     m, sw, cw, conw, pairs, work = _world(box, w)
     penalty_forces(m, sw.body_pos, sw.body_quat, sw.body_vel, sw.body_angvel, conw,
                    work.carry[CARRY_NCON], o.penalty_k, o.penalty_c, o.v_slip, o.dt,
-                   work.rows_per_contact == ROWS_SPIN, work.force, work.torque)
+                   work.rows_per_contact == ROWS_SPIN, work.force, work.torque,
+                   work.penalty_lhs, work.penalty_free)
     return np.int64(STEP_OK)
 
 

@@ -6,6 +6,7 @@ import numpy as np
 from numba import njit
 
 from .._jit import copy_arrays, noalloc
+from ..model.types import DYNAMIC
 from .actuators import servo_on, servoed_bodies
 from .arrays import CONTACT_PENALTY
 from .collide import listed_pairs, listed_primitives
@@ -50,6 +51,9 @@ StepWork = namedtuple("StepWork", [
     "awake",        # (nbody,) bool the dynamic bodies of awake islands
     "saved",        # Saved: the call's inputs, restored if it fails (call.save_inputs)
     "carry",        # (CARRY_SLOTS,) int64 what a stage hands the next (step.py)
+    "penalty_lhs",  # (nbody, 6, 6) a free body's implicit penalty system (0 rows unless
+                    # contacts are implicit penalty springs; contacts/penalty.py)
+    "penalty_free", # (nbody,) bool dynamic bodies in no joint and without a body servo
 ])
 
 # What a step call may change, copied before it (the worlds' leading axis kept): the
@@ -86,7 +90,30 @@ def make_step_work(m, s, c, con, o):
                     Saved(copy_arrays(s), copy_arrays(con), c.pd_target_quat.copy(),
                           c.body_target_quat.copy(), c.pd_target_q.copy(),
                           c.pd_target_qd.copy()),
-                    np.zeros(CARRY_SLOTS, np.int64))
+                    np.zeros(CARRY_SLOTS, np.int64),
+                    np.zeros((nb if _implicit_penalty(o) else 0, 6, 6)),
+                    _unconstrained(m, servoed, nb))
+
+
+@njit(cache=True, inline="always")
+def _implicit_penalty(o):
+    return o.contact == CONTACT_PENALTY and o.penalty_implicit
+
+
+@njit(cache=True, inline="always")
+def _unconstrained(m, servoed, nb):
+    """(nb,) bool: the dynamic bodies that no joint and no body servo holds (their
+    forces are final before the solve, so penalty springs can be implicit on them)."""
+    free = np.zeros(nb, np.bool_)
+    for b in range(nb):
+        free[b] = m.body_kind[b] == DYNAMIC
+    for j in range(m.joint_child.shape[0]):
+        free[m.joint_child[j]] = False
+        if m.joint_parent[j] >= 0:
+            free[m.joint_parent[j]] = False
+    for b in servoed:
+        free[b] = False
+    return free
 
 
 @njit(cache=True, inline="always")
@@ -118,4 +145,5 @@ def work_fits(work, m, s, c, con, o):
     project = njrow > 0 and o.projection > 0
     return (work.contact_capacity == cap and work.row_capacity == ncap
             and work.projecting == project and work.rows.rhs.shape[0] == ncap
-            and work.gpos.shape[0] == m.geom_type.shape[0])
+            and work.gpos.shape[0] == m.geom_type.shape[0]
+            and (work.penalty_lhs.shape[0] > 0) == _implicit_penalty(o))

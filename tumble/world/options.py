@@ -24,6 +24,7 @@ GYROSCOPIC = {"implicit": GYRO_IMPLICIT, "explicit": GYRO_EXPLICIT, "none": GYRO
 QUAT_INTEGRATION = {"exp": QUAT_EXP, "linear": QUAT_LINEAR}
 CONTACT_MODELS = {"lcp": CONTACT_LCP, "pgs": CONTACT_PGS, "penalty": CONTACT_PENALTY}
 SOLVERS = {"direct": SOLVER_DIRECT, "pgs": SOLVER_PGS}
+PENALTY_INTEGRATION = {"implicit": True, "explicit": False}
 
 
 def _choice(table):
@@ -80,6 +81,7 @@ _CHECKS = {
     "projection_tolerance": _nonneg, "contact_erp": _fraction, "contact_cfm": _nonneg,
     "slop": _nonneg, "bounce_threshold": _nonneg, "penalty_stiffness": _optional(_pos),
     "penalty_damping": _optional(_nonneg), "slip_velocity": _optional(_pos),
+    "penalty_integration": _choice(PENALTY_INTEGRATION),
     "contact_margin": _nonneg, "pd": _choice(PD_MODES), "broadphase": _choice(BROADPHASES),
     "profile": _flag, "sleep_time": _optional(_pos), "sleep_speed": _nonneg,
     "sleep_spin": _nonneg,
@@ -127,6 +129,13 @@ class Options:
     slip_velocity : None (default): penalty friction is a stick spring that holds below
         the friction angle; a speed (m/s): the regularised Coulomb law of that speed
         instead (see ``tumble.pipeline.contacts.penalty``).
+    penalty_integration : 'implicit' (default): the springs and dampers of a body that no
+        joint or servo holds act on its velocity at the end of the step (linearly implicit
+        Euler, one 6x6 solve per body), so a heap of boxes on many contacts each is stable
+        at the default stiffness; 'explicit': the lecture's forces from the state at the
+        start of the step for every body (stable only while ``sqrt(K/m) h`` and ``C h/m``
+        stay small; see ``tumble.pipeline.contacts.penalty``). Bodies in joints or under
+        a body servo are explicit either way.
     contact_margin : contacts are found this far apart (m) so the solver stops a fast body
         at the surface instead of pushing it out afterwards (penalty ignores the gap).
     pd : how joint PD servos act: 'implicit' (default; a soft constraint row solved with
@@ -171,6 +180,7 @@ class Options:
     penalty_stiffness: float = None
     penalty_damping: float = None
     slip_velocity: float = None
+    penalty_integration: str = "implicit"
     contact_margin: float = 0.01
     pd: str = "implicit"
     broadphase: str = "sap"
@@ -212,6 +222,6 @@ def step_options(options, lightest_mass):
         bool(o.warm_start), int(o.projection),
         float(o.projection_tolerance), CONTACT_MODELS[o.contact], float(o.contact_erp),
         float(o.contact_cfm), float(o.slop), float(o.bounce_threshold), float(k), float(c),
-        float(v_slip), float(o.contact_margin), PD_MODES[o.pd], BROADPHASES[o.broadphase],
+        float(v_slip), PENALTY_INTEGRATION[o.penalty_integration], float(o.contact_margin), PD_MODES[o.pd], BROADPHASES[o.broadphase],
         bool(o.profile), float(o.sleep_time or 0.0), float(o.sleep_speed),
         float(o.sleep_spin))

@@ -529,11 +529,14 @@ class World(StateMixin, ControlMixin, QueryMixin):
     def _warn_stiff_geoms(self):
         """Warn about geoms whose own contact stiffness k makes their body's penalty spring
         unstable at this dt: semi-implicit Euler needs sqrt(k / m) dt < 2 on one contact,
-        < 1 on four sharing the weight (see ``tumble.pipeline.contacts.penalty``)."""
+        < 1 on four sharing the weight (see ``tumble.pipeline.contacts.penalty``). Bodies
+        outside joints are safe under the default implicit springs."""
         m = self.model
+        jointed = set(m.joint_parent.tolist()) | set(m.joint_child.tolist())
+        implicit = self.options.penalty_integration == "implicit"
         for g in np.flatnonzero(m.geom_stiffness > 0):
             b = m.geom_body[g]
-            if b < 0 or m.body_kind[b] != DYNAMIC:
+            if b < 0 or m.body_kind[b] != DYNAMIC or (implicit and b not in jointed):
                 continue
             wh = np.sqrt(m.geom_stiffness[g] / m.body_mass[b]) * self.dt
             if wh > 1.0:

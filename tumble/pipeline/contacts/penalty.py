@@ -24,9 +24,27 @@ and a box in a stack is damped from above and below, and critical damping for th
 compresses like springs in series (the 10-box stack by 37 mm at 240 Hz). A pair of geoms
 with their own stiffness or damping (``ModelBuilder.add_geom``, combined by
 ``pairs.pair_softness``) uses those instead; the same rule bounds what is stable:
-``k <= m / (16 h^2)`` for a body of mass m on four such contacts. Not every scene is
-stable with them: the 210-box pyramid, whose boxes straddle gaps and rock on two
-neighbours' edges, still spreads apart with penalty contacts; use 'lcp' or 'pgs' there.
+``k <= m / (16 h^2)`` for a body of mass m on four such contacts.
+
+That rule counts four contacts; a box of the 210-box pyramid rests on eight and carries
+eight more, on two neighbours' edges, and explicit springs there are past their limit
+(the pyramid flies apart at 1/240 s; a 21-box one jitters apart). So by default
+(``penalty_integration='implicit'``) the springs of a body that no joint or body servo
+holds are linearly implicit Euler: with D the damping of its contacts plus h times their
+stiffness, ``sum G P G^T`` over its contacts (G = [I; [r]x] the lever of each, P = d_n n
+n^T in the normal plus d_t in the tangent plane while the friction spring sticks), its
+velocity change solves ``(M + h D) dv = h F`` (6x6, Cholesky), F every force on it with
+the springs' force taken at the start of the step and ``-h k v_n`` added (the part of
+``-h^2 K v`` the friction spring already carries). The neighbours' motion stays explicit
+(block Jacobi), which is stable because each body's block holds the whole of every
+coupling its contacts make. A resting body's forces are unchanged (v = 0, F = 0), so
+loads and compressions are the explicit model's; what changes is that the stiff modes
+are damped instead of amplified (about ``h^2 k / m`` more damping, the numerical
+dissipation of implicit Euler). Bodies in joints stay explicit: their joint forces come
+from the solve after this stage, and a per-body solve that leaves them out would shift a
+standing character's equilibrium (its foot would carry the body's weight through M
+instead of M + h D). ``penalty_integration='explicit'`` gives the lecture's explicit
+springs everywhere.
 
 Spin friction (torsional about the normal, rolling about the tangents; ``mu_t``, ``mu_r``
 lengths in m) is the same regularised law on the relative angular velocity:
@@ -43,6 +61,8 @@ from numba import njit
 from ..._jit import noalloc
 
 from ...math.quat import quat_rotate_inv
+from ...math.spatial import inertia_world
+from ...model.types import DYNAMIC
 from .pairs import pair_softness, pair_spin_friction
 from .rows import lever, relative_velocity, tangents
 
@@ -77,7 +97,7 @@ def _spin_torque(m, quat, a, b, e, w, mu, fn, h):
 
 @noalloc
 def penalty_forces(m, pos, quat, vel, angvel, con, count, k, c, v_slip, h, spin_model, force,
-                   torque):
+                   torque, lhs, free):
     """Add the contact forces (N) and their torques about each COM to ``force``/``torque``;
     each contact's ``impulse`` becomes its force times ``h`` (normal, tangent 1, tangent 2)
     and its spin-friction torque times ``h`` (about the normal, tangent 1, tangent 2).
@@ -85,7 +105,20 @@ def penalty_forces(m, pos, quat, vel, angvel, con, count, k, c, v_slip, h, spin_
     k, c : the world's stiffness (N/m) and damping (N s/m), for pairs without their own.
     spin_model : whether any geom has spin friction (``pairs.rows_per_contact``); if not,
     the spin impulses stay the zeros the collision stage wrote.
+    lhs : (nbody, 6, 6) scratch, or 0 rows for explicit springs everywhere.
+    free : (nbody,) bool the bodies whose springs may be implicit (no joint, no servo).
+    With implicit springs, ``force``/``torque`` of a free body in contact end as ``M dv /
+    h`` of its implicit velocity change, while the impulses stay the springs' forces at
+    the start of the step (the same at rest; in an impact they leave out the step's
+    implicit damping).
     """
+    implicit = lhs.shape[0] > 0
+    if implicit:
+        for b in range(lhs.shape[0]):
+            if free[b]:
+                for r in range(6):
+                    for q in range(6):
+                        lhs[b, r, q] = 0.0
     for i in range(count):
         d = con.depth[i]
         if d <= 0.0:
@@ -104,17 +137,24 @@ def penalty_forces(m, pos, quat, vel, angvel, con, count, k, c, v_slip, h, spin_
         r_a, r_b = lever(pos, a, p), lever(pos, b, p)
         rel = relative_velocity(vel, angvel, a, b, r_a, r_b)
         vn = rel[0] * n[0] + rel[1] * n[1] + rel[2] * n[2]
-        fn = max(kp * d - cp * vn, 0.0)
+        # implicit: both sides free or unmoving; the spring then also sees this step's
+        # closing h vn (linearly implicit Euler's -h K v), the rest in the bodies' solve
+        imp = implicit and _free_side(m, free, a) and _free_side(m, free, b)
+        fn = max(kp * d - (cp + h * kp if imp else cp) * vn, 0.0)
         t1, t2 = tangents(n)
         v1 = rel[0] * t1[0] + rel[1] * t1[1] + rel[2] * t1[2]
         v2 = rel[0] * t2[0] + rel[1] * t2[1] + rel[2] * t2[2]
         cap = con.friction[i] * fn
+        d_t = 0.0                      # the friction's damping d f_t / d v_t, N s/m
         if v_slip > 0.0:
             # regularised Coulomb: a damper up to v_slip, mu f_n beyond
             speed = math.sqrt(v1 * v1 + v2 * v2)
             f1, f2 = -cap * v1 / max(speed, v_slip), -cap * v2 / max(speed, v_slip)
             s1, s2 = f1, f2
+            if speed < v_slip:
+                d_t = cap / v_slip
         else:
+            d_t = cp + h * kp
             # stick spring: last step's elastic force (carried by the matched contact's
             # impulse; 0 for a new contact) stretched by this step's slip, plus damping;
             # beyond mu f_n it slides and the spring holds only what is transmitted
@@ -125,6 +165,11 @@ def penalty_forces(m, pos, quat, vel, angvel, con, count, k, c, v_slip, h, spin_
             if mag > cap:
                 f1, f2 = f1 * cap / mag, f2 * cap / mag
                 s1, s2 = f1, f2
+                d_t = 0.0
+        if imp and fn > 0.0:
+            d_n = cp + h * kp
+            _add_damping(lhs, free, a, r_a, n, d_n, d_t)
+            _add_damping(lhs, free, b, r_b, n, d_n, d_t)
         f = (fn * n[0] + f1 * t1[0] + f2 * t2[0], fn * n[1] + f1 * t1[1] + f2 * t2[1],
              fn * n[2] + f1 * t1[2] + f2 * t2[2])
         con.impulse[i, 0] = fn * h
@@ -167,3 +212,107 @@ def penalty_forces(m, pos, quat, vel, angvel, con, count, k, c, v_slip, h, spin_
                 torque[b, kk] += spin[kk]
             if a >= 0:
                 torque[a, kk] -= spin[kk]
+    if implicit:
+        _solve_implicit(m, quat, lhs, free, h, force, torque)
+
+
+@njit(cache=True, inline="always")
+def _free_side(m, free, b):
+    """Whether contact side ``b`` lets its springs be implicit: the world, a body that
+    does not move under forces, or a free one."""
+    return b < 0 or m.body_kind[b] != DYNAMIC or free[b]
+
+
+@noalloc
+def _add_damping(lhs, free, b, r, n, d_n, d_t):
+    """Add ``G P G^T`` to body ``b``'s 6x6 block (if free): G = [I; [r]x] maps a point
+    force at lever ``r`` to the wrench about the COM, P = d_t I + (d_n - d_t) n n^T the
+    contact's damping (with h K folded in) in the normal and tangent directions."""
+    if b < 0 or not free[b]:
+        return
+    for j in range(6):
+        # column j: the point velocity of a unit body velocity j, its force, its wrench
+        u0, u1, u2 = 0.0, 0.0, 0.0
+        if j < 3:
+            if j == 0:
+                u0 = 1.0
+            elif j == 1:
+                u1 = 1.0
+            else:
+                u2 = 1.0
+        else:
+            # w x r for the unit angular velocity e_(j-3)
+            if j == 3:
+                u1, u2 = -r[2], r[1]
+            elif j == 4:
+                u0, u2 = r[2], -r[0]
+            else:
+                u0, u1 = -r[1], r[0]
+        un = (u0 * n[0] + u1 * n[1] + u2 * n[2]) * (d_n - d_t)
+        f0, f1, f2 = d_t * u0 + un * n[0], d_t * u1 + un * n[1], d_t * u2 + un * n[2]
+        lhs[b, 0, j] += f0
+        lhs[b, 1, j] += f1
+        lhs[b, 2, j] += f2
+        lhs[b, 3, j] += r[1] * f2 - r[2] * f1
+        lhs[b, 4, j] += r[2] * f0 - r[0] * f2
+        lhs[b, 5, j] += r[0] * f1 - r[1] * f0
+
+
+@noalloc
+def _solve_implicit(m, quat, lhs, free, h, force, torque):
+    """Each free body's velocity change ``x = (M + h D)^-1 (force, torque) h`` under its
+    own springs' damping D (6x6, h K folded in), handed on as the force ``M x / h`` the
+    integrator expects. A body without springs keeps its force."""
+    for b in range(lhs.shape[0]):
+        if not free[b] or lhs[b, 0, 0] + lhs[b, 1, 1] + lhs[b, 2, 2] == 0.0:
+            continue
+        mass = 1.0 / m.body_inv_mass[b]
+        iw = inertia_world(quat[b], m.body_inertia[b])
+        a = lhs[b]
+        for r in range(6):
+            for q in range(6):
+                a[r, q] *= h
+        for r in range(3):
+            a[r, r] += mass
+            for q in range(3):
+                a[3 + r, 3 + q] += iw[r][q]
+        # Cholesky in place (lower), then the two triangular solves on the wrench
+        for j in range(6):
+            s = a[j, j]
+            for q in range(j):
+                s -= a[j, q] * a[j, q]
+            a[j, j] = math.sqrt(s)
+            for r in range(j + 1, 6):
+                t = a[r, j]
+                for q in range(j):
+                    t -= a[r, q] * a[j, q]
+                a[r, j] = t / a[j, j]
+        # forward then backward substitution, in place on the force and torque
+        for r in range(6):
+            t = _get6(force, torque, b, r)
+            for q in range(r):
+                t -= a[r, q] * _get6(force, torque, b, q)
+            _set6(force, torque, b, r, t / a[r, r])
+        for r in range(5, -1, -1):
+            t = _get6(force, torque, b, r)
+            for q in range(r + 1, 6):
+                t -= a[q, r] * _get6(force, torque, b, q)
+            _set6(force, torque, b, r, t / a[r, r])
+        for kk in range(3):
+            force[b, kk] *= mass
+        w0, w1, w2 = torque[b, 0], torque[b, 1], torque[b, 2]
+        for kk in range(3):
+            torque[b, kk] = iw[kk][0] * w0 + iw[kk][1] * w1 + iw[kk][2] * w2
+
+
+@njit(cache=True, inline="always")
+def _get6(force, torque, b, r):
+    return force[b, r] if r < 3 else torque[b, r - 3]
+
+
+@njit(cache=True, inline="always")
+def _set6(force, torque, b, r, value):
+    if r < 3:
+        force[b, r] = value
+    else:
+        torque[b, r - 3] = value
