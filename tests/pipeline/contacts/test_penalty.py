@@ -35,7 +35,8 @@ def tilted_box(rotvec, depth, vel, angvel, integration):
 
 def expected_velocities(world, pos, quat, vel, angvel, implicit):
     """The box's velocities after one step from (pos, quat, vel, angvel) on the contacts
-    the step found, by (linearly implicit or explicit) Euler: springs ``k d`` and dampers
+    the step found, and the contacts' normal forces (N; implicit: at the end of the step),
+    by (linearly implicit or explicit) Euler: springs ``k d`` and dampers
     ``c`` along the normal, a stick spring ``-k h v_t`` minus ``c v_t`` (new contacts)
     capped at ``mu f_n`` in the tangent plane; implicit: ``-h k v_n`` more on the normal
     and ``(M + h D) dv = h F``, D the dampers plus h k on the box's 6x6."""
@@ -68,7 +69,17 @@ def expected_velocities(world, pos, quat, vel, angvel, implicit):
     mass = np.zeros((6, 6))
     mass[:3, :3], mass[3:, 3:] = np.eye(3), inertia
     dv = h * np.linalg.solve(mass + h * damping, wrench)
-    return vel + dv[:3], angvel + dv[3:]
+    # the contacts' normal forces at the end of the step: less the damping of the change
+    normal = []
+    for i in range(len(con)):
+        side = 1.0 if con.bodies[i, 1] == 0 else -1.0
+        n, r = con.normal[i], con.point[i] - pos
+        vn = side * (vel + np.cross(angvel, r)) @ n
+        fn = max(k * con.depth[i] - d_spring * vn, 0.0) if con.depth[i] > 0.0 else 0.0
+        if implicit and fn > 0.0:
+            fn = max(fn - d_spring * side * (dv[:3] + np.cross(dv[3:], r)) @ n, 0.0)
+        normal.append(fn)
+    return vel + dv[:3], angvel + dv[3:], np.array(normal)
 
 
 @settings(max_examples=25, deadline=None)
@@ -84,9 +95,11 @@ def test_a_step_is_linearly_implicit_or_explicit_euler(tilt, depth, vel, angvel,
     v0, w0 = w.body_vel[0].copy(), w.body_angvel[0].copy()
     w.step()
     assert len(w.contacts) > 0
-    vel1, angvel1 = expected_velocities(w, pos, quat, v0, w0, integration == "implicit")
+    vel1, angvel1, normal = expected_velocities(w, pos, quat, v0, w0,
+                                                integration == "implicit")
     np.testing.assert_allclose(w.body_vel[0], vel1, rtol=1e-9, atol=1e-10)
     np.testing.assert_allclose(w.body_angvel[0], angvel1, rtol=1e-9, atol=1e-10)
+    np.testing.assert_allclose(w.contacts.normal_force, normal, rtol=1e-9, atol=1e-9)
 
 
 def small_pyramid(integration, base=6):

@@ -61,7 +61,7 @@ from numba import njit
 from ..._jit import noalloc
 
 from ...math.quat import quat_rotate_inv
-from ...math.spatial import inertia_world
+from ...math.spatial import inertia_world, inertia_world_inv
 from ...model.types import DYNAMIC
 from .pairs import pair_softness, pair_spin_friction
 from .rows import lever, relative_velocity, tangents
@@ -108,9 +108,8 @@ def penalty_forces(m, pos, quat, vel, angvel, con, count, k, c, v_slip, h, spin_
     lhs : (nbody, 6, 6) scratch, or 0 rows for explicit springs everywhere.
     free : (nbody,) bool the bodies whose springs may be implicit (no joint, no servo).
     With implicit springs, ``force``/``torque`` of a free body in contact end as ``M dv /
-    h`` of its implicit velocity change, while the impulses stay the springs' forces at
-    the start of the step (the same at rest; in an impact they leave out the step's
-    implicit damping).
+    h`` of its implicit velocity change, and its contacts' impulses are their forces at
+    the end of the step (``_end_of_step_impulses``).
     """
     implicit = lhs.shape[0] > 0
     if implicit:
@@ -214,6 +213,70 @@ def penalty_forces(m, pos, quat, vel, angvel, con, count, k, c, v_slip, h, spin_
                 torque[a, kk] -= spin[kk]
     if implicit:
         _solve_implicit(m, quat, lhs, free, h, force, torque)
+        _end_of_step_impulses(m, pos, quat, vel, angvel, con, count, k, c, v_slip, h, force,
+                              torque, free)
+
+
+@noalloc
+def _end_of_step_impulses(m, pos, quat, vel, angvel, con, count, k, c, v_slip, h, force,
+                          torque, free):
+    """The impulses of the implicit contacts at the end of the step: each contact's force
+    less its damping of the step's change of the relative velocity ``dv`` (from the free
+    bodies' solved forces; linearly implicit Euler's ``F - D dv``), and the friction
+    spring stretched by the end velocity (``s - k h dv_t``), both within the cone."""
+    for i in range(count):
+        a, b = con.body[i, 0], con.body[i, 1]
+        fn = con.impulse[i, 0] / h
+        if fn <= 0.0 or not (_free_side(m, free, a) and _free_side(m, free, b)):
+            continue
+        kp, cp = pair_softness(m, con.geom[i, 0], con.geom[i, 1])
+        if kp <= 0.0:
+            kp = k
+        if cp < 0.0:
+            cp = c
+        p = con.point[i]
+        n = (con.normal[i, 0], con.normal[i, 1], con.normal[i, 2])
+        r_a, r_b = lever(pos, a, p), lever(pos, b, p)
+        rel = relative_velocity(vel, angvel, a, b, r_a, r_b)
+        du_b = _velocity_change(m, quat, free, b, r_b, h, force, torque)
+        du_a = _velocity_change(m, quat, free, a, r_a, h, force, torque)
+        du = (du_b[0] - du_a[0], du_b[1] - du_a[1], du_b[2] - du_a[2])
+        fn = max(fn - (cp + h * kp) * (du[0] * n[0] + du[1] * n[1] + du[2] * n[2]), 0.0)
+        t1, t2 = tangents(n)
+        u1 = rel[0] * t1[0] + rel[1] * t1[1] + rel[2] * t1[2]
+        u2 = rel[0] * t2[0] + rel[1] * t2[1] + rel[2] * t2[2]
+        u1 += du[0] * t1[0] + du[1] * t1[1] + du[2] * t1[2]
+        u2 += du[0] * t2[0] + du[1] * t2[1] + du[2] * t2[2]
+        cap = con.friction[i] * fn
+        if v_slip > 0.0:
+            speed = math.sqrt(u1 * u1 + u2 * u2)
+            s1, s2 = -cap * u1 / max(speed, v_slip), -cap * u2 / max(speed, v_slip)
+        else:
+            s1 = con.impulse[i, 1] / h - kp * h * (du[0] * t1[0] + du[1] * t1[1] + du[2] * t1[2])
+            s2 = con.impulse[i, 2] / h - kp * h * (du[0] * t2[0] + du[1] * t2[1] + du[2] * t2[2])
+            f1, f2 = s1 - cp * u1, s2 - cp * u2
+            mag = math.sqrt(f1 * f1 + f2 * f2)
+            if mag > cap:
+                s1, s2 = f1 * cap / mag, f2 * cap / mag
+        con.impulse[i, 0] = h * fn
+        con.impulse[i, 1] = h * s1
+        con.impulse[i, 2] = h * s2
+
+
+@njit(cache=True, inline="always")
+def _velocity_change(m, quat, free, b, r, h, force, torque):
+    """This step's velocity change (3,) of body ``b``'s point at lever ``r`` from its
+    implicit solve (``force``/``torque`` hold ``M dv / h``); zero for other bodies."""
+    if b < 0 or not free[b]:
+        return (0.0, 0.0, 0.0)
+    inv = inertia_world_inv(quat[b], m.body_inv_inertia[b])
+    hm = h * m.body_inv_mass[b]
+    w = (h * (inv[0][0] * torque[b, 0] + inv[0][1] * torque[b, 1] + inv[0][2] * torque[b, 2]),
+         h * (inv[1][0] * torque[b, 0] + inv[1][1] * torque[b, 1] + inv[1][2] * torque[b, 2]),
+         h * (inv[2][0] * torque[b, 0] + inv[2][1] * torque[b, 1] + inv[2][2] * torque[b, 2]))
+    return (hm * force[b, 0] + w[1] * r[2] - w[2] * r[1],
+            hm * force[b, 1] + w[2] * r[0] - w[0] * r[2],
+            hm * force[b, 2] + w[0] * r[1] - w[1] * r[0])
 
 
 @njit(cache=True, inline="always")
