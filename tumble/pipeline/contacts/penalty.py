@@ -61,7 +61,7 @@ from numba import njit
 from ..._jit import noalloc
 
 from ...math.quat import quat_rotate_inv
-from ...math.spatial import inertia_world, inertia_world_inv
+from ...math.spatial import inertia_world
 from ...model.types import DYNAMIC
 from .pairs import pair_softness, pair_spin_friction
 from .rows import lever, relative_velocity, tangents
@@ -116,7 +116,7 @@ def penalty_forces(m, pos, quat, vel, angvel, con, count, k, c, v_slip, h, spin_
         for b in range(lhs.shape[0]):
             if free[b]:
                 for r in range(6):
-                    for q in range(6):
+                    for q in range(r + 1):
                         lhs[b, r, q] = 0.0
     for i in range(count):
         d = con.depth[i]
@@ -167,8 +167,8 @@ def penalty_forces(m, pos, quat, vel, angvel, con, count, k, c, v_slip, h, spin_
                 d_t = 0.0
         if imp and fn > 0.0:
             d_n = cp + h * kp
-            _add_damping(lhs, free, a, r_a, n, d_n, d_t)
-            _add_damping(lhs, free, b, r_b, n, d_n, d_t)
+            _add_damping(lhs, free, a, r_a, n, h * d_n, h * d_t)
+            _add_damping(lhs, free, b, r_b, n, h * d_n, h * d_t)
         f = (fn * n[0] + f1 * t1[0] + f2 * t2[0], fn * n[1] + f1 * t1[1] + f2 * t2[1],
              fn * n[2] + f1 * t1[2] + f2 * t2[2])
         con.impulse[i, 0] = fn * h
@@ -212,71 +212,10 @@ def penalty_forces(m, pos, quat, vel, angvel, con, count, k, c, v_slip, h, spin_
             if a >= 0:
                 torque[a, kk] -= spin[kk]
     if implicit:
-        _solve_implicit(m, quat, lhs, free, h, force, torque)
-        _end_of_step_impulses(m, pos, quat, vel, angvel, con, count, k, c, v_slip, h, force,
+        _solve_implicit(m, quat, lhs, free, force, torque)
+        _end_of_step_impulses(m, pos, vel, angvel, con, count, k, c, v_slip, h, force,
                               torque, free)
-
-
-@noalloc
-def _end_of_step_impulses(m, pos, quat, vel, angvel, con, count, k, c, v_slip, h, force,
-                          torque, free):
-    """The impulses of the implicit contacts at the end of the step: each contact's force
-    less its damping of the step's change of the relative velocity ``dv`` (from the free
-    bodies' solved forces; linearly implicit Euler's ``F - D dv``), and the friction
-    spring stretched by the end velocity (``s - k h dv_t``), both within the cone."""
-    for i in range(count):
-        a, b = con.body[i, 0], con.body[i, 1]
-        fn = con.impulse[i, 0] / h
-        if fn <= 0.0 or not (_free_side(m, free, a) and _free_side(m, free, b)):
-            continue
-        kp, cp = pair_softness(m, con.geom[i, 0], con.geom[i, 1])
-        if kp <= 0.0:
-            kp = k
-        if cp < 0.0:
-            cp = c
-        p = con.point[i]
-        n = (con.normal[i, 0], con.normal[i, 1], con.normal[i, 2])
-        r_a, r_b = lever(pos, a, p), lever(pos, b, p)
-        rel = relative_velocity(vel, angvel, a, b, r_a, r_b)
-        du_b = _velocity_change(m, quat, free, b, r_b, h, force, torque)
-        du_a = _velocity_change(m, quat, free, a, r_a, h, force, torque)
-        du = (du_b[0] - du_a[0], du_b[1] - du_a[1], du_b[2] - du_a[2])
-        fn = max(fn - (cp + h * kp) * (du[0] * n[0] + du[1] * n[1] + du[2] * n[2]), 0.0)
-        t1, t2 = tangents(n)
-        u1 = rel[0] * t1[0] + rel[1] * t1[1] + rel[2] * t1[2]
-        u2 = rel[0] * t2[0] + rel[1] * t2[1] + rel[2] * t2[2]
-        u1 += du[0] * t1[0] + du[1] * t1[1] + du[2] * t1[2]
-        u2 += du[0] * t2[0] + du[1] * t2[1] + du[2] * t2[2]
-        cap = con.friction[i] * fn
-        if v_slip > 0.0:
-            speed = math.sqrt(u1 * u1 + u2 * u2)
-            s1, s2 = -cap * u1 / max(speed, v_slip), -cap * u2 / max(speed, v_slip)
-        else:
-            s1 = con.impulse[i, 1] / h - kp * h * (du[0] * t1[0] + du[1] * t1[1] + du[2] * t1[2])
-            s2 = con.impulse[i, 2] / h - kp * h * (du[0] * t2[0] + du[1] * t2[1] + du[2] * t2[2])
-            f1, f2 = s1 - cp * u1, s2 - cp * u2
-            mag = math.sqrt(f1 * f1 + f2 * f2)
-            if mag > cap:
-                s1, s2 = f1 * cap / mag, f2 * cap / mag
-        con.impulse[i, 0] = h * fn
-        con.impulse[i, 1] = h * s1
-        con.impulse[i, 2] = h * s2
-
-
-@njit(cache=True, inline="always")
-def _velocity_change(m, quat, free, b, r, h, force, torque):
-    """This step's velocity change (3,) of body ``b``'s point at lever ``r`` from its
-    implicit solve (``force``/``torque`` hold ``M dv / h``); zero for other bodies."""
-    if b < 0 or not free[b]:
-        return (0.0, 0.0, 0.0)
-    inv = inertia_world_inv(quat[b], m.body_inv_inertia[b])
-    hm = h * m.body_inv_mass[b]
-    w = (h * (inv[0][0] * torque[b, 0] + inv[0][1] * torque[b, 1] + inv[0][2] * torque[b, 2]),
-         h * (inv[1][0] * torque[b, 0] + inv[1][1] * torque[b, 1] + inv[1][2] * torque[b, 2]),
-         h * (inv[2][0] * torque[b, 0] + inv[2][1] * torque[b, 1] + inv[2][2] * torque[b, 2]))
-    return (hm * force[b, 0] + w[1] * r[2] - w[2] * r[1],
-            hm * force[b, 1] + w[2] * r[0] - w[0] * r[2],
-            hm * force[b, 2] + w[0] * r[1] - w[1] * r[0])
+        _implicit_forces(m, quat, lhs, free, force, torque)
 
 
 @njit(cache=True, inline="always")
@@ -288,69 +227,77 @@ def _free_side(m, free, b):
 
 @noalloc
 def _add_damping(lhs, free, b, r, n, d_n, d_t):
-    """Add ``G P G^T`` to body ``b``'s 6x6 block (if free): G = [I; [r]x] maps a point
-    force at lever ``r`` to the wrench about the COM, P = d_t I + (d_n - d_t) n n^T the
-    contact's damping (with h K folded in) in the normal and tangent directions."""
+    """Add ``G P G^T`` to the lower triangle of body ``b``'s 6x6 block (if free): G = [I;
+    [r]x] maps a point force at lever ``r`` to the wrench about the COM, P = d_t I +
+    (d_n - d_t) n n^T the contact's damping (with h K folded in) in the normal and tangent
+    directions. Blocks: P, [r]x P below it, and [r]x P [r]x^T."""
     if b < 0 or not free[b]:
         return
-    for j in range(6):
-        # column j: the point velocity of a unit body velocity j, its force, its wrench
-        u0, u1, u2 = 0.0, 0.0, 0.0
-        if j < 3:
-            if j == 0:
-                u0 = 1.0
-            elif j == 1:
-                u1 = 1.0
-            else:
-                u2 = 1.0
-        else:
-            # w x r for the unit angular velocity e_(j-3)
-            if j == 3:
-                u1, u2 = -r[2], r[1]
-            elif j == 4:
-                u0, u2 = r[2], -r[0]
-            else:
-                u0, u1 = -r[1], r[0]
-        un = (u0 * n[0] + u1 * n[1] + u2 * n[2]) * (d_n - d_t)
-        f0, f1, f2 = d_t * u0 + un * n[0], d_t * u1 + un * n[1], d_t * u2 + un * n[2]
-        lhs[b, 0, j] += f0
-        lhs[b, 1, j] += f1
-        lhs[b, 2, j] += f2
-        lhs[b, 3, j] += r[1] * f2 - r[2] * f1
-        lhs[b, 4, j] += r[2] * f0 - r[0] * f2
-        lhs[b, 5, j] += r[0] * f1 - r[1] * f0
+    e = d_n - d_t
+    # P (symmetric)
+    p00, p11, p22 = d_t + e * n[0] * n[0], d_t + e * n[1] * n[1], d_t + e * n[2] * n[2]
+    p01, p02, p12 = e * n[0] * n[1], e * n[0] * n[2], e * n[1] * n[2]
+    # C = [r]x P: C[i][j] = (r x column j of P)[i]
+    c00 = r[1] * p02 - r[2] * p01
+    c01 = r[1] * p12 - r[2] * p11
+    c02 = r[1] * p22 - r[2] * p12
+    c10 = r[2] * p00 - r[0] * p02
+    c11 = r[2] * p01 - r[0] * p12
+    c12 = r[2] * p02 - r[0] * p22
+    c20 = r[0] * p01 - r[1] * p00
+    c21 = r[0] * p11 - r[1] * p01
+    c22 = r[0] * p12 - r[1] * p02
+    L = lhs[b]
+    L[0, 0] += p00
+    L[1, 0] += p01
+    L[1, 1] += p11
+    L[2, 0] += p02
+    L[2, 1] += p12
+    L[2, 2] += p22
+    L[3, 0] += c00
+    L[3, 1] += c01
+    L[3, 2] += c02
+    L[4, 0] += c10
+    L[4, 1] += c11
+    L[4, 2] += c12
+    L[5, 0] += c20
+    L[5, 1] += c21
+    L[5, 2] += c22
+    # C [r]x^T: entry (i, j) = (r x row i of C), component j
+    L[3, 3] += r[1] * c02 - r[2] * c01
+    L[4, 3] += r[1] * c12 - r[2] * c11
+    L[4, 4] += r[2] * c10 - r[0] * c12
+    L[5, 3] += r[1] * c22 - r[2] * c21
+    L[5, 4] += r[2] * c20 - r[0] * c22
+    L[5, 5] += r[0] * c21 - r[1] * c20
 
 
 @noalloc
-def _solve_implicit(m, quat, lhs, free, h, force, torque):
-    """Each free body's velocity change ``x = (M + h D)^-1 (force, torque) h`` under its
-    own springs' damping D (6x6, h K folded in), handed on as the force ``M x / h`` the
-    integrator expects. A body without springs keeps its force."""
+def _solve_implicit(m, quat, lhs, free, force, torque):
+    """Each free body with springs: ``x = (M + h D)^-1 (force, torque)`` in place of its
+    force and torque (``x h`` its velocity change), the factor left in ``lhs``. On entry
+    ``lhs[b]``'s lower triangle holds ``h D``."""
     for b in range(lhs.shape[0]):
-        if not free[b] or lhs[b, 0, 0] + lhs[b, 1, 1] + lhs[b, 2, 2] == 0.0:
+        if not free[b] or lhs[b, 0, 0] + lhs[b, 1, 1] + lhs[b, 2, 2] <= 0.0:
             continue
+        a = lhs[b]
         mass = 1.0 / m.body_inv_mass[b]
         iw = inertia_world(quat[b], m.body_inertia[b])
-        a = lhs[b]
-        for r in range(6):
-            for q in range(6):
-                a[r, q] *= h
         for r in range(3):
             a[r, r] += mass
-            for q in range(3):
+            for q in range(r + 1):
                 a[3 + r, 3 + q] += iw[r][q]
         # Cholesky in place (lower), then the two triangular solves on the wrench
         for j in range(6):
-            s = a[j, j]
+            t = a[j, j]
             for q in range(j):
-                s -= a[j, q] * a[j, q]
-            a[j, j] = math.sqrt(s)
+                t -= a[j, q] * a[j, q]
+            a[j, j] = math.sqrt(t)
             for r in range(j + 1, 6):
                 t = a[r, j]
                 for q in range(j):
                     t -= a[r, q] * a[j, q]
                 a[r, j] = t / a[j, j]
-        # forward then backward substitution, in place on the force and torque
         for r in range(6):
             t = _get6(force, torque, b, r)
             for q in range(r):
@@ -361,6 +308,17 @@ def _solve_implicit(m, quat, lhs, free, h, force, torque):
             for q in range(r + 1, 6):
                 t -= a[q, r] * _get6(force, torque, b, q)
             _set6(force, torque, b, r, t / a[r, r])
+
+
+@noalloc
+def _implicit_forces(m, quat, lhs, free, force, torque):
+    """The solved bodies' ``x`` back to the force and torque the integrator takes, ``M x``
+    (so that it changes their velocities by ``h x``)."""
+    for b in range(lhs.shape[0]):
+        if not free[b] or lhs[b, 0, 0] == 0.0:
+            continue
+        mass = 1.0 / m.body_inv_mass[b]
+        iw = inertia_world(quat[b], m.body_inertia[b])
         for kk in range(3):
             force[b, kk] *= mass
         w0, w1, w2 = torque[b, 0], torque[b, 1], torque[b, 2]
@@ -379,3 +337,62 @@ def _set6(force, torque, b, r, value):
         force[b, r] = value
     else:
         torque[b, r - 3] = value
+
+
+@noalloc
+def _end_of_step_impulses(m, pos, vel, angvel, con, count, k, c, v_slip, h, x_lin, x_ang,
+                          free):
+    """The impulses of the implicit contacts at the end of the step: each contact's force
+    less its damping of the step's change of the relative velocity ``du`` (from the free
+    bodies' solved ``x``: ``h (x_lin + x_ang x r)``; linearly implicit Euler's ``F - D
+    du``), and the friction spring stretched by the end velocity (``s - k h du_t``), both
+    within the cone."""
+    for i in range(count):
+        a, b = con.body[i, 0], con.body[i, 1]
+        fn = con.impulse[i, 0] / h
+        if fn <= 0.0 or not (_free_side(m, free, a) and _free_side(m, free, b)):
+            continue
+        kp, cp = pair_softness(m, con.geom[i, 0], con.geom[i, 1])
+        if kp <= 0.0:
+            kp = k
+        if cp < 0.0:
+            cp = c
+        p = con.point[i]
+        n = (con.normal[i, 0], con.normal[i, 1], con.normal[i, 2])
+        r_a, r_b = lever(pos, a, p), lever(pos, b, p)
+        rel = relative_velocity(vel, angvel, a, b, r_a, r_b)
+        du_b = _velocity_change(free, b, r_b, h, x_lin, x_ang)
+        du_a = _velocity_change(free, a, r_a, h, x_lin, x_ang)
+        du = (du_b[0] - du_a[0], du_b[1] - du_a[1], du_b[2] - du_a[2])
+        fn = max(fn - (cp + h * kp) * (du[0] * n[0] + du[1] * n[1] + du[2] * n[2]), 0.0)
+        t1, t2 = tangents(n)
+        d1 = du[0] * t1[0] + du[1] * t1[1] + du[2] * t1[2]
+        d2 = du[0] * t2[0] + du[1] * t2[1] + du[2] * t2[2]
+        u1 = rel[0] * t1[0] + rel[1] * t1[1] + rel[2] * t1[2] + d1
+        u2 = rel[0] * t2[0] + rel[1] * t2[1] + rel[2] * t2[2] + d2
+        cap = con.friction[i] * fn
+        if v_slip > 0.0:
+            speed = math.sqrt(u1 * u1 + u2 * u2)
+            s1, s2 = -cap * u1 / max(speed, v_slip), -cap * u2 / max(speed, v_slip)
+        else:
+            s1 = con.impulse[i, 1] / h - kp * h * d1
+            s2 = con.impulse[i, 2] / h - kp * h * d2
+            f1, f2 = s1 - cp * u1, s2 - cp * u2
+            mag = math.sqrt(f1 * f1 + f2 * f2)
+            if mag > cap:
+                s1, s2 = f1 * cap / mag, f2 * cap / mag
+        con.impulse[i, 0] = h * fn
+        con.impulse[i, 1] = h * s1
+        con.impulse[i, 2] = h * s2
+
+
+@njit(cache=True, inline="always")
+def _velocity_change(free, b, r, h, x_lin, x_ang):
+    """This step's velocity change (3,) of body ``b``'s point at lever ``r``, ``h (x_lin +
+    x_ang x r)`` from its implicit solve; zero for bodies that are not free."""
+    if b < 0 or not free[b]:
+        return (0.0, 0.0, 0.0)
+    w0, w1, w2 = x_ang[b, 0], x_ang[b, 1], x_ang[b, 2]
+    return (h * (x_lin[b, 0] + w1 * r[2] - w2 * r[1]),
+            h * (x_lin[b, 1] + w2 * r[0] - w0 * r[2]),
+            h * (x_lin[b, 2] + w0 * r[1] - w1 * r[0]))
