@@ -125,16 +125,7 @@ def penalty_forces(m, pos, quat, vel, angvel, con, count, k, c, v_slip, h, spin_
                 con.impulse[i, q] = 0.0
             continue
         a, b = con.body[i, 0], con.body[i, 1]
-        ga, gb = con.geom[i, 0], con.geom[i, 1]
-        kp, cp = pair_softness(m, ga, gb)
-        if kp <= 0.0:
-            kp = k
-        if cp < 0.0:
-            cp = c
-        p = con.point[i]
-        n = (con.normal[i, 0], con.normal[i, 1], con.normal[i, 2])
-        r_a, r_b = lever(pos, a, p), lever(pos, b, p)
-        rel = relative_velocity(vel, angvel, a, b, r_a, r_b)
+        kp, cp, n, r_a, r_b, rel = _contact_state(m, pos, vel, angvel, con, i, k, c)
         vn = rel[0] * n[0] + rel[1] * n[1] + rel[2] * n[2]
         # implicit: both sides free or unmoving; the spring then also sees this step's
         # closing h vn (linearly implicit Euler's -h K v), the rest in the bodies' solve
@@ -189,7 +180,7 @@ def penalty_forces(m, pos, quat, vel, angvel, con, count, k, c, v_slip, h, spin_
             continue
         # spin friction: torque on b about the contact, -torque on a
         spin = (0.0, 0.0, 0.0)
-        mu_t, mu_r = pair_spin_friction(m, ga, gb)
+        mu_t, mu_r = pair_spin_friction(m, con.geom[i, 0], con.geom[i, 1])
         if (mu_t > 0.0 or mu_r > 0.0) and fn > 0.0:
             wb = (angvel[b, 0], angvel[b, 1], angvel[b, 2]) if b >= 0 else (0.0, 0.0, 0.0)
             wa = (angvel[a, 0], angvel[a, 1], angvel[a, 2]) if a >= 0 else (0.0, 0.0, 0.0)
@@ -216,6 +207,23 @@ def penalty_forces(m, pos, quat, vel, angvel, con, count, k, c, v_slip, h, spin_
         _end_of_step_impulses(m, pos, vel, angvel, con, count, k, c, v_slip, h, force,
                               torque, free)
         _implicit_forces(m, quat, lhs, free, force, torque)
+
+
+@njit(cache=True, inline="always")
+def _contact_state(m, pos, vel, angvel, con, i, k, c):
+    """Contact ``i``'s spring and damper (its pair's own, else the world's ``k``, ``c``),
+    normal, levers from each body's COM, and the relative velocity of b's point to a's
+    (start of the step)."""
+    a, b = con.body[i, 0], con.body[i, 1]
+    kp, cp = pair_softness(m, con.geom[i, 0], con.geom[i, 1])
+    if kp <= 0.0:
+        kp = k
+    if cp < 0.0:
+        cp = c
+    p = con.point[i]
+    n = (con.normal[i, 0], con.normal[i, 1], con.normal[i, 2])
+    r_a, r_b = lever(pos, a, p), lever(pos, b, p)
+    return kp, cp, n, r_a, r_b, relative_velocity(vel, angvel, a, b, r_a, r_b)
 
 
 @njit(cache=True, inline="always")
@@ -352,15 +360,7 @@ def _end_of_step_impulses(m, pos, vel, angvel, con, count, k, c, v_slip, h, x_li
         fn = con.impulse[i, 0] / h
         if fn <= 0.0 or not (_free_side(m, free, a) and _free_side(m, free, b)):
             continue
-        kp, cp = pair_softness(m, con.geom[i, 0], con.geom[i, 1])
-        if kp <= 0.0:
-            kp = k
-        if cp < 0.0:
-            cp = c
-        p = con.point[i]
-        n = (con.normal[i, 0], con.normal[i, 1], con.normal[i, 2])
-        r_a, r_b = lever(pos, a, p), lever(pos, b, p)
-        rel = relative_velocity(vel, angvel, a, b, r_a, r_b)
+        kp, cp, n, r_a, r_b, rel = _contact_state(m, pos, vel, angvel, con, i, k, c)
         du_b = _velocity_change(free, b, r_b, h, x_lin, x_ang)
         du_a = _velocity_change(free, a, r_a, h, x_lin, x_ang)
         du = (du_b[0] - du_a[0], du_b[1] - du_a[1], du_b[2] - du_a[2])
