@@ -144,18 +144,13 @@ def penalty_forces(m, pos, quat, vel, angvel, con, count, k, c, v_slip, h, spin_
             if speed < v_slip:
                 d_t = cap / v_slip
         else:
-            d_t = cp + h * kp
             # stick spring: last step's elastic force (carried by the matched contact's
             # impulse; 0 for a new contact) stretched by this step's slip, plus damping;
             # beyond mu f_n it slides and the spring holds only what is transmitted
-            s1 = con.impulse[i, 1] / h - kp * h * v1
-            s2 = con.impulse[i, 2] / h - kp * h * v2
-            f1, f2 = s1 - cp * v1, s2 - cp * v2
-            mag = math.sqrt(f1 * f1 + f2 * f2)
-            if mag > cap:
-                f1, f2 = f1 * cap / mag, f2 * cap / mag
-                s1, s2 = f1, f2
-                d_t = 0.0
+            s1, s2, f1, f2, sliding = _stick_spring(con.impulse[i, 1] / h,
+                                                    con.impulse[i, 2] / h, v1, v2, v1, v2,
+                                                    kp, cp, h, cap)
+            d_t = 0.0 if sliding else cp + h * kp
         if imp and fn > 0.0:
             d_n = cp + h * kp
             _add_damping(lhs, free, a, r_a, n, h * d_n, h * d_t)
@@ -224,6 +219,22 @@ def _contact_state(m, pos, vel, angvel, con, i, k, c):
     n = (con.normal[i, 0], con.normal[i, 1], con.normal[i, 2])
     r_a, r_b = lever(pos, a, p), lever(pos, b, p)
     return kp, cp, n, r_a, r_b, relative_velocity(vel, angvel, a, b, r_a, r_b)
+
+
+@njit(cache=True, inline="always")
+def _stick_spring(s1, s2, slip1, slip2, u1, u2, kp, cp, h, cap):
+    """The friction spring: its elastic force ``s`` (N, along the two tangents) stretched
+    by ``-kp h slip``, its force ``s - cp u`` (u the tangential velocity); beyond ``cap``
+    it slides, force and spring at ``cap`` along the force. Returns (s1, s2, f1, f2,
+    sliding)."""
+    s1 = s1 - kp * h * slip1
+    s2 = s2 - kp * h * slip2
+    f1, f2 = s1 - cp * u1, s2 - cp * u2
+    mag = math.sqrt(f1 * f1 + f2 * f2)
+    if mag > cap:
+        f1, f2 = f1 * cap / mag, f2 * cap / mag
+        return f1, f2, f1, f2, True
+    return s1, s2, f1, f2, False
 
 
 @njit(cache=True, inline="always")
@@ -375,12 +386,8 @@ def _end_of_step_impulses(m, pos, vel, angvel, con, count, k, c, v_slip, h, x_li
             speed = math.sqrt(u1 * u1 + u2 * u2)
             s1, s2 = -cap * u1 / max(speed, v_slip), -cap * u2 / max(speed, v_slip)
         else:
-            s1 = con.impulse[i, 1] / h - kp * h * d1
-            s2 = con.impulse[i, 2] / h - kp * h * d2
-            f1, f2 = s1 - cp * u1, s2 - cp * u2
-            mag = math.sqrt(f1 * f1 + f2 * f2)
-            if mag > cap:
-                s1, s2 = f1 * cap / mag, f2 * cap / mag
+            s1, s2, _, _, _ = _stick_spring(con.impulse[i, 1] / h, con.impulse[i, 2] / h,
+                                            d1, d2, u1, u2, kp, cp, h, cap)
         con.impulse[i, 0] = h * fn
         con.impulse[i, 1] = h * s1
         con.impulse[i, 2] = h * s2
