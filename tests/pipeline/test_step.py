@@ -178,6 +178,10 @@ def test_a_world_compiles_the_branches_its_model_and_options_take():
         "penalty_contact_forces", "stable_pd_forces", "sleep", "direct_solve"}
     assert wanted(pendulum_and_box(contact="pgs")) == {"pgs_solve"}
     assert wanted(pendulum_and_box(solver="pgs")) == {"pgs_solve", "direct_solve", "lcp_solve"}
+    # the bench's chain: its links collide with nothing, so no collision or contact branch
+    from tumble.apps.benchmarks import chain
+    assert wanted(tumble.World(chain())) == {"direct_solve"}
+    assert wanted(tumble.World(chain(), contact="penalty")) == {"direct_solve"}
     terrain = tumble.World(bodies_on_a_heightfield())
     assert wanted(terrain) == {"general_collide", "lcp_solve"}
     terrain.step(30)                      # it lands on the terrain through the branch

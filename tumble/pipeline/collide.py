@@ -136,13 +136,26 @@ def listed_pairs(m, nbody):
 
 @noalloc
 def listed_primitives(m, listed):
-    """Whether every pair of ``listed`` (``listed_pairs``, not empty) is of two primitive
-    geoms: then ``collide_listed`` does the whole collision stage."""
+    """Whether every pair of ``listed`` (``listed_pairs``) is of two primitive geoms: then
+    ``collide_listed`` does the whole collision stage. An empty list is too many pairs to
+    list, unless no pair may collide at all (a chain whose links touch nothing): then the
+    listed stage finds nothing, and the general collision need not be compiled."""
     if listed.shape[0] == 0:
-        return False
+        return none_may_collide(m)
     for c in range(listed.shape[0]):
         if m.geom_type[listed[c, 0]] >= CONVEX or m.geom_type[listed[c, 1]] >= CONVEX:
             return False
+    return True
+
+
+@noalloc
+def none_may_collide(m):
+    """Whether no pair of the model's geoms ``may_collide``."""
+    ng, nbody = m.geom_type.shape[0], m.body_kind.shape[0]
+    for i in range(ng):
+        for j in range(i + 1, ng):
+            if may_collide(m, i, j, nbody):
+                return False
     return True
 
 

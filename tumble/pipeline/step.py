@@ -66,7 +66,7 @@ from .actuators import (PD_EXPLICIT, PD_IMPLICIT, PD_STABLE, actuator_forces, bo
 from .arrays import (CONTACT_LCP, CONTACT_PENALTY, CONTACT_PGS, SOLVER_PGS, STAGE_CHECK,
                      STAGE_COLLIDE, STAGE_COORDINATES, STAGE_FORCES, STAGES)
 from .collide import (COLLIDE_OK, COLLIDE_PAIRS_FULL, collide_listed, collide_world,
-                      listed_pairs, listed_primitives)
+                      listed_pairs, listed_primitives, none_may_collide)
 from .contacts.arrays import copy_contact, pair_before
 from .contacts.pairs import ROWS_SPIN
 from .contacts.penalty import penalty_forces
@@ -507,11 +507,14 @@ def wanted_branches(m, o, general_collision):
     ``general_collision`` (``takes_general_collision(m)``, which a caller keeps: the model
     cannot change); sleeping, penalty contacts and stable PD when the options ask for
     them; and the solves ``solve.solve_method`` can pick: PGS when the options use it, the
-    direct solve for joints or penalty contacts, the mixed LCP for exact contacts. A
+    direct solve for joints or penalty contacts, the mixed LCP for exact contacts (none of
+    the contact branches when no pair of geoms may touch). A
     branch missed here (body servos on a model without joints, say) compiles on the first
     step that takes it."""
     wanted = []
-    contacts = m.geom_type.shape[0] > 1
+    # contacts are possible at all (a chain whose links touch nothing needs no contact
+    # solve; a model that takes the general collision has pairs to collide)
+    contacts = m.geom_type.shape[0] > 1 and (general_collision or not none_may_collide(m))
     if general_collision:
         wanted.append("general_collide")
     if o.sleep_time > 0.0:
