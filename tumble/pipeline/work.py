@@ -97,6 +97,7 @@ def make_step_work(m, s, c, con, o):
 
 @njit(cache=True, inline="always")
 def _implicit_penalty(o):
+    """Whether options ``o`` make free bodies' penalty springs implicit."""
     return o.contact == CONTACT_PENALTY and o.penalty_implicit
 
 

@@ -222,6 +222,6 @@ def step_options(options, lightest_mass):
         bool(o.warm_start), int(o.projection),
         float(o.projection_tolerance), CONTACT_MODELS[o.contact], float(o.contact_erp),
         float(o.contact_cfm), float(o.slop), float(o.bounce_threshold), float(k), float(c),
-        float(v_slip), PENALTY_INTEGRATION[o.penalty_integration], float(o.contact_margin), PD_MODES[o.pd], BROADPHASES[o.broadphase],
-        bool(o.profile), float(o.sleep_time or 0.0), float(o.sleep_speed),
-        float(o.sleep_spin))
+        float(v_slip), PENALTY_INTEGRATION[o.penalty_integration], float(o.contact_margin),
+        PD_MODES[o.pd], BROADPHASES[o.broadphase], bool(o.profile),
+        float(o.sleep_time or 0.0), float(o.sleep_speed), float(o.sleep_spin))
